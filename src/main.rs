@@ -1,0 +1,3 @@
+//! shellwarp command-line interface.
+
+fn main() {}

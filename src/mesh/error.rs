@@ -1,0 +1,80 @@
+//! Errors raised while building, validating or reading a mesh.
+
+use std::path::PathBuf;
+
+/// Why a mesh was refused. Every variant names the offending element so the user can find it.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum MeshError {
+    /// The mesh has no vertices or no triangles.
+    #[error("mesh is empty ({vertices} vertices, {triangles} triangles)")]
+    Empty {
+        /// Number of vertices given.
+        vertices: usize,
+        /// Number of triangles given.
+        triangles: usize,
+    },
+    /// A vertex coordinate is NaN or infinite.
+    #[error("vertex {vertex} has a non-finite coordinate")]
+    NonFinite {
+        /// Index of the vertex.
+        vertex: usize,
+    },
+    /// A triangle refers to a vertex that does not exist.
+    #[error("triangle {triangle} refers to vertex {index}, but the mesh has only {vertex_count} vertices")]
+    IndexOutOfRange {
+        /// Index of the triangle.
+        triangle: usize,
+        /// The out-of-range vertex index.
+        index: usize,
+        /// Number of vertices in the mesh.
+        vertex_count: usize,
+    },
+    /// A triangle has (near) zero area or repeats a vertex.
+    #[error("triangle {triangle} is degenerate (area {area:.3e})")]
+    DegenerateTriangle {
+        /// Index of the triangle.
+        triangle: usize,
+        /// Its area.
+        area: f64,
+    },
+    /// An edge is shared by more than two triangles.
+    #[error("edge ({a}, {b}) is non-manifold: shared by {count} triangles")]
+    NonManifoldEdge {
+        /// First vertex of the edge.
+        a: usize,
+        /// Second vertex of the edge.
+        b: usize,
+        /// Number of triangles sharing it.
+        count: usize,
+    },
+    /// Two triangles sharing an edge traverse it in the same direction (inconsistent winding).
+    #[error("edge ({a}, {b}) is traversed in the same direction by two triangles: inconsistent orientation")]
+    InconsistentOrientation {
+        /// First vertex of the edge.
+        a: usize,
+        /// Second vertex of the edge.
+        b: usize,
+    },
+    /// A vertex is used by no triangle.
+    #[error("vertex {vertex} is not used by any triangle")]
+    UnreferencedVertex {
+        /// Index of the vertex.
+        vertex: usize,
+    },
+    /// A generator was given parameters that cannot make a mesh.
+    #[error("invalid generator parameter `{name}`: {reason}")]
+    BadParameter {
+        /// The parameter's name.
+        name: &'static str,
+        /// Why it was refused.
+        reason: String,
+    },
+    /// Reading or writing a mesh file failed.
+    #[error("{path}: {reason}")]
+    Io {
+        /// The file involved.
+        path: PathBuf,
+        /// What went wrong.
+        reason: String,
+    },
+}

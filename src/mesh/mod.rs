@@ -1,0 +1,12 @@
+//! Triangle meshes: geometry, topology built once, validation, OBJ in/out and procedural generators.
+//!
+//! Positions are `f64` for simulation; the renderer converts to `f32` itself.
+
+mod error;
+mod topology;
+mod trimesh;
+
+pub use error::MeshError;
+pub use topology::{Edge, Hinge, Topology};
+pub use trimesh::{TriMesh, vertex_normals};
+pub mod generate;

@@ -1,0 +1,190 @@
+//! The validated triangle mesh type.
+
+use glam::DVec3;
+
+use super::{MeshError, Topology};
+
+/// A validated, consistently oriented 2-manifold triangle mesh (boundary allowed) with its topology.
+///
+/// Construct with [`TriMesh::new`]; the fields are read-only afterwards so topology can never go stale.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TriMesh {
+    positions: Vec<DVec3>,
+    triangles: Vec<[usize; 3]>,
+    topology: Topology,
+}
+
+/// Triangles whose area is below this fraction of the squared bounding-box diagonal are degenerate.
+const DEGENERATE_RELATIVE_AREA: f64 = 1e-14;
+
+impl TriMesh {
+    /// Validate positions and triangles and build the topology.
+    ///
+    /// Errors (checked in this order): empty mesh, non-finite coordinate, out-of-range index,
+    /// degenerate triangle (repeated vertex or near-zero area), unreferenced vertex,
+    /// non-manifold edge, inconsistent orientation.
+    pub fn new(positions: Vec<DVec3>, triangles: Vec<[usize; 3]>) -> Result<Self, MeshError> {
+        if positions.is_empty() || triangles.is_empty() {
+            return Err(MeshError::Empty { vertices: positions.len(), triangles: triangles.len() });
+        }
+        if let Some(vertex) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(MeshError::NonFinite { vertex });
+        }
+        let n = positions.len();
+        for (triangle, t) in triangles.iter().enumerate() {
+            if let Some(&index) = t.iter().find(|&&i| i >= n) {
+                return Err(MeshError::IndexOutOfRange { triangle, index, vertex_count: n });
+            }
+        }
+        let (lo, hi) = bounds(&positions);
+        let min_area = DEGENERATE_RELATIVE_AREA * (hi - lo).length_squared();
+        for (triangle, t) in triangles.iter().enumerate() {
+            let area = area_of(&positions, t);
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area <= min_area {
+                return Err(MeshError::DegenerateTriangle { triangle, area });
+            }
+        }
+        let mut used = vec![false; n];
+        triangles.iter().flatten().for_each(|&i| used[i] = true);
+        if let Some(vertex) = used.iter().position(|u| !u) {
+            return Err(MeshError::UnreferencedVertex { vertex });
+        }
+        let topology = Topology::build(n, &triangles)?;
+        Ok(Self { positions, triangles, topology })
+    }
+
+    /// Rest positions.
+    pub fn positions(&self) -> &[DVec3] {
+        &self.positions
+    }
+
+    /// Triangles as vertex-index triples, counter-clockwise seen from the front.
+    pub fn triangles(&self) -> &[[usize; 3]] {
+        &self.triangles
+    }
+
+    /// Edges, hinges, boundary and valence.
+    pub fn topology(&self) -> &Topology {
+        &self.topology
+    }
+
+    /// Number of vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Area of every triangle at rest.
+    pub fn triangle_areas(&self) -> Vec<f64> {
+        self.triangles.iter().map(|t| area_of(&self.positions, t)).collect()
+    }
+
+    /// One third of the area of every incident triangle, per vertex (the lumped-mass weights).
+    pub fn vertex_areas(&self) -> Vec<f64> {
+        let mut a = vec![0.0; self.positions.len()];
+        for t in &self.triangles {
+            let third = area_of(&self.positions, t) / 3.0;
+            t.iter().for_each(|&i| a[i] += third);
+        }
+        a
+    }
+
+    /// Axis-aligned bounding box `(min, max)` of the rest positions.
+    pub fn bounding_box(&self) -> (DVec3, DVec3) {
+        bounds(&self.positions)
+    }
+
+    /// The same connectivity with new positions (which must be finite and as many as before).
+    pub fn with_positions(&self, positions: Vec<DVec3>) -> Result<Self, MeshError> {
+        if positions.len() != self.positions.len() {
+            return Err(MeshError::BadParameter {
+                name: "positions",
+                reason: format!("expected {} positions, got {}", self.positions.len(), positions.len()),
+            });
+        }
+        Self::new(positions, self.triangles.clone())
+    }
+}
+
+/// Axis-aligned bounds of a point set (`(+inf, -inf)` when empty).
+pub(crate) fn bounds(points: &[DVec3]) -> (DVec3, DVec3) {
+    points.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)))
+}
+
+fn area_of(p: &[DVec3], t: &[usize; 3]) -> f64 {
+    0.5 * (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).length()
+}
+
+/// Area-weighted smooth vertex normals of `positions` over `triangles` (unit length; zero where undefined).
+pub fn vertex_normals(positions: &[DVec3], triangles: &[[usize; 3]]) -> Vec<DVec3> {
+    let mut n = vec![DVec3::ZERO; positions.len()];
+    for t in triangles {
+        // The unnormalised face normal has length 2·area: an area weighting for free.
+        let f = (positions[t[1]] - positions[t[0]]).cross(positions[t[2]] - positions[t[0]]);
+        t.iter().for_each(|&i| n[i] += f);
+    }
+    n.iter_mut().for_each(|v| *v = v.normalize_or_zero());
+    n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square(z: f64) -> Vec<DVec3> {
+        vec![DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(1.0, 1.0, z), DVec3::new(0.0, 1.0, 0.0)]
+    }
+    const SQ: [[usize; 3]; 2] = [[0, 1, 2], [0, 2, 3]];
+
+    #[test]
+    fn valid_square_areas_and_normals() {
+        let m = TriMesh::new(square(0.0), SQ.to_vec()).unwrap();
+        assert_eq!(m.triangle_areas(), vec![0.5, 0.5]);
+        let va = m.vertex_areas();
+        assert!((va.iter().sum::<f64>() - 1.0).abs() < 1e-15);
+        assert!((va[0] - 1.0 / 3.0).abs() < 1e-15 && (va[1] - 1.0 / 6.0).abs() < 1e-15);
+        for n in vertex_normals(m.positions(), m.triangles()) {
+            assert!((n - DVec3::Z).length() < 1e-15);
+        }
+        assert_eq!(m.bounding_box(), (DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0)));
+    }
+
+    #[test]
+    fn every_validation_error_is_reported() {
+        assert_eq!(TriMesh::new(vec![], vec![]), Err(MeshError::Empty { vertices: 0, triangles: 0 }));
+        let mut nan = square(0.0);
+        nan[2].y = f64::NAN;
+        assert_eq!(TriMesh::new(nan, SQ.to_vec()), Err(MeshError::NonFinite { vertex: 2 }));
+        assert_eq!(
+            TriMesh::new(square(0.0), vec![[0, 1, 2], [0, 2, 7]]),
+            Err(MeshError::IndexOutOfRange { triangle: 1, index: 7, vertex_count: 4 })
+        );
+        assert!(matches!(
+            TriMesh::new(square(0.0), vec![[0, 1, 2], [0, 2, 2], [0, 2, 3]]),
+            Err(MeshError::DegenerateTriangle { triangle: 1, .. })
+        ));
+        let mut collinear = square(0.0);
+        collinear[3] = DVec3::new(2.0, 2.0, 0.0); // on the line through 0 and 2
+        assert!(matches!(
+            TriMesh::new(collinear, SQ.to_vec()),
+            Err(MeshError::DegenerateTriangle { triangle: 1, .. })
+        ));
+        let mut extra = square(0.0);
+        extra.push(DVec3::ONE);
+        assert_eq!(TriMesh::new(extra, SQ.to_vec()), Err(MeshError::UnreferencedVertex { vertex: 4 }));
+        let mut five = square(0.0);
+        five.push(DVec3::new(0.5, -1.0, 0.0));
+        five.push(DVec3::new(0.5, 0.5, 1.0));
+        assert!(matches!(
+            TriMesh::new(five, vec![[0, 1, 2], [1, 0, 4], [0, 1, 5], [0, 2, 3]]),
+            Err(MeshError::NonManifoldEdge { a: 0, b: 1, count: 3 })
+        ));
+    }
+
+    #[test]
+    fn with_positions_keeps_connectivity() {
+        let m = TriMesh::new(square(0.0), SQ.to_vec()).unwrap();
+        let bent = m.with_positions(square(0.5)).unwrap();
+        assert_eq!(bent.topology(), m.topology());
+        assert!(m.with_positions(vec![DVec3::ZERO]).is_err());
+    }
+}

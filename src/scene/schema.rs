@@ -1,0 +1,247 @@
+//! The typed form of a scene file (TOML). Unknown keys are refused by serde; value checks are in
+//! [`Scene::validate`].
+
+use serde::{Deserialize, Serialize};
+
+/// A complete scene: what to simulate, with which method, seen from where.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Short name shown in lists.
+    pub name: String,
+    /// One line saying what the scene shows.
+    #[serde(default)]
+    pub description: String,
+    /// Where the simulated mesh comes from.
+    pub mesh: MeshSource,
+    /// Rigid placement applied to the mesh after it is made.
+    #[serde(default)]
+    pub placement: Placement,
+    /// Physical parameters.
+    #[serde(default)]
+    pub material: Material,
+    /// Fixed vertices.
+    #[serde(default)]
+    pub anchors: Vec<Selection>,
+    /// Gravity acceleration, m/s².
+    #[serde(default = "default_gravity")]
+    pub gravity: [f64; 3],
+    /// Constant point forces on selected vertices.
+    #[serde(default)]
+    pub loads: Vec<Load>,
+    /// Static or scripted rigid bodies the mesh collides with.
+    #[serde(default)]
+    pub colliders: Vec<Collider>,
+    /// Method and its numerical settings.
+    pub solver: SolverSettings,
+    /// Initial view.
+    #[serde(default)]
+    pub camera: CameraSpec,
+}
+
+fn default_gravity() -> [f64; 3] {
+    [0.0, -9.81, 0.0]
+}
+
+/// A procedural generator with its parameters, or an OBJ file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "generator", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum MeshSource {
+    /// Regular grid in the y = 0 plane, centred on the origin: x ∈ ±size[0]/2, z ∈ ±size[1]/2.
+    Grid {
+        /// Extent along x and z, metres.
+        size: [f64; 2],
+        /// Number of cells along x and z.
+        segments: [usize; 2],
+    },
+    /// Two strips meeting at a crease along x (a V cross-section).
+    VBeam {
+        /// Length along x, metres.
+        length: f64,
+        /// Developed width (both wings), metres.
+        width: f64,
+        /// Opening angle between the wings, degrees (180 is flat).
+        angle_deg: f64,
+        /// Cells along x and across (across must be even).
+        segments: [usize; 2],
+    },
+    /// Irregular Delaunay-refined sheet in the y = 0 plane, centred on the origin.
+    DelaunaySheet {
+        /// Extent along x and z, metres.
+        size: [f64; 2],
+        /// Target edge length, metres.
+        edge: f64,
+    },
+    /// Geodesic sphere: icosahedron subdivided `frequency` times per edge.
+    Icosphere {
+        /// Radius, metres.
+        radius: f64,
+        /// Subdivisions per icosahedron edge (1 = icosahedron).
+        frequency: usize,
+    },
+    /// Latitude/longitude sphere.
+    UvSphere {
+        /// Radius, metres.
+        radius: f64,
+        /// Rings between the poles.
+        rings: usize,
+        /// Segments around.
+        sectors: usize,
+    },
+    /// A closed organic shell (body, head, tail, legs) for timing at the paper's scale.
+    Creature {
+        /// Overall length, metres.
+        length: f64,
+        /// Geodesic frequency (36 gives 12,962 vertices).
+        frequency: usize,
+    },
+    /// A triangle mesh from an OBJ file (path relative to the scene file).
+    Obj {
+        /// The file.
+        path: String,
+    },
+}
+
+/// Scale, rotation (Euler XYZ, degrees) then translation applied to the generated mesh.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Placement {
+    /// Uniform scale.
+    pub scale: f64,
+    /// Rotation about x, then y, then z, degrees.
+    pub rotate_deg: [f64; 3],
+    /// Translation, metres.
+    pub translate: [f64; 3],
+}
+
+impl Default for Placement {
+    fn default() -> Self {
+        Self { scale: 1.0, rotate_deg: [0.0; 3], translate: [0.0; 3] }
+    }
+}
+
+/// Physical parameters. Each solver family reads the ones it needs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Material {
+    /// Surface density, kg/m².
+    pub density: f64,
+    /// Shell area (stretch) stiffness k_A, N/m.
+    pub k_area: f64,
+    /// Shell edge-length (shear) stiffness k_L, N/m.
+    pub k_length: f64,
+    /// Shell bending stiffness k_B, N·m.
+    pub k_bend: f64,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Self { density: 0.5, k_area: 1.0e3, k_length: 1.0e3, k_bend: 1.0e-2 }
+    }
+}
+
+/// A set of vertices: those inside an axis-aligned box, or listed by index (exactly one of the two).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Selection {
+    /// Select vertices inside this box (after placement).
+    #[serde(default, rename = "box")]
+    pub aabb: Option<Aabb>,
+    /// Select these vertex indices.
+    #[serde(default)]
+    pub indices: Option<Vec<usize>>,
+}
+
+/// An axis-aligned box, metres.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Aabb {
+    /// Lower corner.
+    pub min: [f64; 3],
+    /// Upper corner.
+    pub max: [f64; 3],
+}
+
+/// A constant force applied to each selected vertex.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Load {
+    /// Which vertices.
+    pub select: Selection,
+    /// Force on each of them, newtons.
+    pub force: [f64; 3],
+}
+
+/// A rigid body the mesh collides with.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Collider {
+    /// A ball.
+    Sphere {
+        /// Centre, metres.
+        center: [f64; 3],
+        /// Radius, metres.
+        radius: f64,
+    },
+    /// An infinite plane; the mesh stays on the side the normal points to.
+    Plane {
+        /// A point on the plane.
+        point: [f64; 3],
+        /// Outward normal (need not be unit length).
+        normal: [f64; 3],
+    },
+}
+
+/// Which method runs the scene, and its numerical settings (method-specific ones are ignored by others).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSettings {
+    /// Registered method name (`shellwarp scenes` lists them).
+    pub method: String,
+    /// Fixed time step in seconds; the method's default if absent.
+    #[serde(default)]
+    pub step: Option<f64>,
+    /// Number of vibration modes for modal methods.
+    #[serde(default = "default_modes")]
+    pub modes: usize,
+    /// Rayleigh mass damping α, 1/s.
+    #[serde(default)]
+    pub rayleigh_alpha: f64,
+    /// Rayleigh stiffness damping β, s.
+    #[serde(default)]
+    pub rayleigh_beta: f64,
+    /// Iteration cap of the method's inner solve (Newton, PCG, constraint sweeps).
+    #[serde(default = "default_iterations")]
+    pub iterations: usize,
+    /// Relative tolerance of the inner solve.
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+}
+
+fn default_modes() -> usize {
+    8
+}
+fn default_iterations() -> usize {
+    50
+}
+fn default_tolerance() -> f64 {
+    1e-8
+}
+
+/// Where the camera starts.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraSpec {
+    /// Eye position, metres.
+    pub eye: [f64; 3],
+    /// Point looked at, metres.
+    pub target: [f64; 3],
+    /// Vertical field of view, degrees.
+    pub fov_deg: f64,
+}
+
+impl Default for CameraSpec {
+    fn default() -> Self {
+        Self { eye: [0.0, 1.0, 3.0], target: [0.0; 3], fov_deg: 45.0 }
+    }
+}

@@ -1,0 +1,143 @@
+//! Value checks that serde's typing cannot express. Each failure names its dotted key.
+
+use super::schema::{Collider, MeshSource, Scene, Selection};
+
+/// A failed check: the dotted key and the reason.
+pub(crate) type Invalid = (String, String);
+
+fn finite(key: &str, v: f64) -> Result<(), Invalid> {
+    if v.is_finite() { Ok(()) } else { Err((key.into(), "must be a finite number".into())) }
+}
+
+fn positive(key: &str, v: f64) -> Result<(), Invalid> {
+    finite(key, v)?;
+    if v > 0.0 { Ok(()) } else { Err((key.into(), format!("must be positive, got {v}"))) }
+}
+
+fn non_negative(key: &str, v: f64) -> Result<(), Invalid> {
+    finite(key, v)?;
+    if v >= 0.0 { Ok(()) } else { Err((key.into(), format!("must not be negative, got {v}"))) }
+}
+
+fn vec3(key: &str, v: [f64; 3]) -> Result<(), Invalid> {
+    v.iter().try_for_each(|&x| finite(key, x))
+}
+
+fn at_least(key: &str, v: usize, min: usize) -> Result<(), Invalid> {
+    if v >= min { Ok(()) } else { Err((key.into(), format!("must be at least {min}, got {v}"))) }
+}
+
+fn selection(key: &str, s: &Selection) -> Result<(), Invalid> {
+    match (&s.aabb, &s.indices) {
+        (Some(b), None) => {
+            vec3(&format!("{key}.box.min"), b.min)?;
+            vec3(&format!("{key}.box.max"), b.max)?;
+            if (0..3).any(|k| b.min[k] > b.max[k]) {
+                return Err((format!("{key}.box"), "min must not exceed max on any axis".into()));
+            }
+            Ok(())
+        }
+        (None, Some(i)) if !i.is_empty() => Ok(()),
+        (None, Some(_)) => Err((format!("{key}.indices"), "is empty".into())),
+        _ => Err((key.into(), "give exactly one of `box` or `indices`".into())),
+    }
+}
+
+fn mesh(m: &MeshSource) -> Result<(), Invalid> {
+    match m {
+        MeshSource::Grid { size, segments } => {
+            size.iter().try_for_each(|&s| positive("mesh.size", s))?;
+            segments.iter().try_for_each(|&s| at_least("mesh.segments", s, 1))
+        }
+        MeshSource::DelaunaySheet { size, edge } => {
+            size.iter().try_for_each(|&s| positive("mesh.size", s))?;
+            positive("mesh.edge", *edge)?;
+            if size.iter().any(|&s| s / edge > 2000.0) {
+                return Err(("mesh.edge".into(), "too small for the sheet: over 2000 edges per side".into()));
+            }
+            Ok(())
+        }
+        MeshSource::VBeam { length, width, angle_deg, segments } => {
+            positive("mesh.length", *length)?;
+            positive("mesh.width", *width)?;
+            finite("mesh.angle_deg", *angle_deg)?;
+            if !(10.0..=180.0).contains(angle_deg) {
+                return Err(("mesh.angle_deg".into(), format!("must be in [10, 180], got {angle_deg}")));
+            }
+            at_least("mesh.segments", segments[0], 1)?;
+            at_least("mesh.segments", segments[1], 2)?;
+            if segments[1] % 2 != 0 {
+                return Err(("mesh.segments".into(), "cells across must be even (the crease is a vertex row)".into()));
+            }
+            Ok(())
+        }
+        MeshSource::Icosphere { radius, frequency } => {
+            positive("mesh.radius", *radius)?;
+            at_least("mesh.frequency", *frequency, 1)
+        }
+        MeshSource::UvSphere { radius, rings, sectors } => {
+            positive("mesh.radius", *radius)?;
+            at_least("mesh.rings", *rings, 2)?;
+            at_least("mesh.sectors", *sectors, 3)
+        }
+        MeshSource::Creature { length, frequency } => {
+            positive("mesh.length", *length)?;
+            at_least("mesh.frequency", *frequency, 2)
+        }
+        MeshSource::Obj { path } if path.is_empty() => Err(("mesh.path".into(), "is empty".into())),
+        MeshSource::Obj { .. } => Ok(()),
+    }
+}
+
+impl Scene {
+    /// Check every value; the error names the first offending key.
+    pub(crate) fn validate(&self) -> Result<(), Invalid> {
+        mesh(&self.mesh)?;
+        positive("placement.scale", self.placement.scale)?;
+        vec3("placement.rotate_deg", self.placement.rotate_deg)?;
+        vec3("placement.translate", self.placement.translate)?;
+        let m = &self.material;
+        positive("material.density", m.density)?;
+        non_negative("material.k_area", m.k_area)?;
+        non_negative("material.k_length", m.k_length)?;
+        non_negative("material.k_bend", m.k_bend)?;
+        for (i, a) in self.anchors.iter().enumerate() {
+            selection(&format!("anchors[{i}]"), a)?;
+        }
+        vec3("gravity", self.gravity)?;
+        for (i, l) in self.loads.iter().enumerate() {
+            selection(&format!("loads[{i}].select"), &l.select)?;
+            vec3(&format!("loads[{i}].force"), l.force)?;
+        }
+        for (i, c) in self.colliders.iter().enumerate() {
+            match c {
+                Collider::Sphere { center, radius } => {
+                    vec3(&format!("colliders[{i}].center"), *center)?;
+                    positive(&format!("colliders[{i}].radius"), *radius)?;
+                }
+                Collider::Plane { point, normal } => {
+                    vec3(&format!("colliders[{i}].point"), *point)?;
+                    vec3(&format!("colliders[{i}].normal"), *normal)?;
+                    if normal.iter().all(|&x| x == 0.0) {
+                        return Err((format!("colliders[{i}].normal"), "must not be zero".into()));
+                    }
+                }
+            }
+        }
+        let s = &self.solver;
+        if let Some(h) = s.step {
+            positive("solver.step", h)?;
+        }
+        at_least("solver.modes", s.modes, 1)?;
+        non_negative("solver.rayleigh_alpha", s.rayleigh_alpha)?;
+        non_negative("solver.rayleigh_beta", s.rayleigh_beta)?;
+        at_least("solver.iterations", s.iterations, 1)?;
+        positive("solver.tolerance", s.tolerance)?;
+        vec3("camera.eye", self.camera.eye)?;
+        vec3("camera.target", self.camera.target)?;
+        if !(1.0..=170.0).contains(&self.camera.fov_deg) {
+            return Err(("camera.fov_deg".into(), format!("must be in [1, 170], got {}", self.camera.fov_deg)));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,51 @@
+//! The one seam every simulation method plugs into: the [`Solver`] trait, its parameters, drag
+//! constraints, statistics, and the [`registry`] that builds a solver from a scene by method name.
+//!
+//! The viewer, the headless renderer, `sim` and `eval` drive solvers only through this trait, so a
+//! new method is one new file plus one line in [`registry::METHODS`].
+
+mod drag;
+mod error;
+mod params;
+pub mod registry;
+mod rigid;
+mod stats;
+
+pub use drag::{Drag, DragId, DragKind, DragSet};
+pub use error::SolverError;
+pub use params::{ParamSpec, ParamValue};
+pub use registry::{METHODS, Method, build};
+pub use stats::{StepStats, check_finite};
+
+use glam::DVec3;
+
+/// A simulation method stepping one mesh at its own fixed time step.
+pub trait Solver: Send {
+    /// The registry name of this method (e.g. `"mwts"`).
+    fn method(&self) -> &'static str;
+
+    /// The fixed step `h` in seconds that [`Solver::step`] advances.
+    fn time_step(&self) -> f64;
+
+    /// Advance by one fixed step. On divergence returns [`SolverError::Diverged`]; the solver stays
+    /// usable after [`Solver::reset`].
+    fn step(&mut self) -> Result<StepStats, SolverError>;
+
+    /// Current vertex positions, in the order of the scene's mesh.
+    fn positions(&self) -> &[DVec3];
+
+    /// Return to the initial state (rest shape, zero velocity, time zero); parameters and drags are kept.
+    fn reset(&mut self);
+
+    /// The tunable parameters with their current values, for the UI and `--set`.
+    fn params(&self) -> Vec<ParamValue>;
+
+    /// Set one parameter by name. The value is checked against its [`ParamSpec`] first.
+    fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError>;
+
+    /// The drag constraints currently imposed.
+    fn drags(&self) -> &DragSet;
+
+    /// Mutable access to the drag constraints: add, move or remove while running.
+    fn drags_mut(&mut self) -> &mut DragSet;
+}
