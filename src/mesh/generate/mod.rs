@@ -3,3 +3,5 @@
 mod grid;
 
 pub use grid::grid;
+mod pending;
+pub use pending::*;

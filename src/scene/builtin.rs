@@ -1,0 +1,16 @@
+//! The scenes compiled into the binary, from `assets/scenes/`.
+
+/// `(name, TOML text)` of every built-in scene.
+pub const BUILTIN: &[(&str, &str)] = &[
+    ("cantilever", include_str!("../../assets/scenes/cantilever.toml")),
+    ("v-beam", include_str!("../../assets/scenes/v-beam.toml")),
+    ("creature", include_str!("../../assets/scenes/creature.toml")),
+    ("hanging-sheet", include_str!("../../assets/scenes/hanging-sheet.toml")),
+    ("drape", include_str!("../../assets/scenes/drape.toml")),
+    ("balloon", include_str!("../../assets/scenes/balloon.toml")),
+];
+
+/// Names of the built-in scenes, in order.
+pub fn builtin_names() -> Vec<&'static str> {
+    BUILTIN.iter().map(|(n, _)| *n).collect()
+}

@@ -1,0 +1,108 @@
+//! Realising a validated scene: make the mesh, place it, and resolve anchors and loads to vertices.
+
+use glam::{DQuat, DVec3, EulerRot};
+
+use super::schema::{MeshSource, Placement, Scene, Selection};
+use super::{Origin, SceneError};
+use crate::mesh::{MeshError, TriMesh, generate};
+
+/// A scene made concrete: what every solver is built from.
+#[derive(Debug, Clone)]
+pub struct Setup {
+    /// The parsed scene.
+    pub scene: Scene,
+    /// Where it came from (for messages).
+    pub origin: Origin,
+    /// The placed rest mesh.
+    pub mesh: TriMesh,
+    /// Anchored (fixed) vertices, sorted, without repeats.
+    pub anchors: Vec<usize>,
+    /// Constant external point force on each vertex (gravity not included), newtons.
+    pub loads: Vec<DVec3>,
+}
+
+impl Setup {
+    /// Make the mesh and resolve selections. Fails if the mesh cannot be made or a selection is empty.
+    pub fn new(scene: Scene, origin: Origin) -> Result<Self, SceneError> {
+        let mesh_err = |source: MeshError| SceneError::Mesh { file: origin.label.clone(), source };
+        let raw = make_mesh(&scene.mesh, &origin).map_err(mesh_err)?;
+        let mesh = place(&raw, &scene.placement).map_err(mesh_err)?;
+        let invalid = |key: String, reason: String| SceneError::Invalid { file: origin.label.clone(), key, reason };
+        let mut anchors = Vec::new();
+        for (i, a) in scene.anchors.iter().enumerate() {
+            anchors.extend(select(&mesh, a).map_err(|r| invalid(format!("anchors[{i}]"), r))?);
+        }
+        anchors.sort_unstable();
+        anchors.dedup();
+        let mut loads = vec![DVec3::ZERO; mesh.vertex_count()];
+        for (i, l) in scene.loads.iter().enumerate() {
+            for v in select(&mesh, &l.select).map_err(|r| invalid(format!("loads[{i}].select"), r))? {
+                loads[v] += DVec3::from(l.force);
+            }
+        }
+        Ok(Self { scene, origin, mesh, anchors, loads })
+    }
+
+    /// Lumped vertex masses: density × one third of the area of each incident triangle, kg.
+    pub fn masses(&self) -> Vec<f64> {
+        self.mesh.vertex_areas().into_iter().map(|a| a * self.scene.material.density).collect()
+    }
+
+    /// Gravity as a vector, m/s².
+    pub fn gravity(&self) -> DVec3 {
+        DVec3::from(self.scene.gravity)
+    }
+
+    /// Whether each vertex is anchored.
+    pub fn anchored_mask(&self) -> Vec<bool> {
+        let mut mask = vec![false; self.mesh.vertex_count()];
+        self.anchors.iter().for_each(|&i| mask[i] = true);
+        mask
+    }
+}
+
+fn make_mesh(source: &MeshSource, origin: &Origin) -> Result<TriMesh, MeshError> {
+    match *source {
+        MeshSource::Grid { size, segments } => generate::grid(size, segments),
+        MeshSource::VBeam { length, width, angle_deg, segments } => {
+            generate::v_beam(length, width, angle_deg, segments)
+        }
+        MeshSource::DelaunaySheet { size, edge } => generate::delaunay_sheet(size, edge),
+        MeshSource::Icosphere { radius, frequency } => generate::icosphere(radius, frequency),
+        MeshSource::UvSphere { radius, rings, sectors } => generate::uv_sphere(radius, rings, sectors),
+        MeshSource::Creature { length, frequency } => generate::creature(length, frequency),
+        MeshSource::Obj { ref path } => generate::obj::load_obj(&origin.dir.join(path)),
+    }
+}
+
+fn place(mesh: &TriMesh, p: &Placement) -> Result<TriMesh, MeshError> {
+    if *p == Placement::default() {
+        return Ok(mesh.clone());
+    }
+    let [rx, ry, rz] = p.rotate_deg.map(f64::to_radians);
+    let q = DQuat::from_euler(EulerRot::XYZ, rx, ry, rz);
+    let t = DVec3::from(p.translate);
+    mesh.with_positions(mesh.positions().iter().map(|&x| q * (x * p.scale) + t).collect())
+}
+
+/// The vertices a selection picks, or why it picks none.
+fn select(mesh: &TriMesh, s: &Selection) -> Result<Vec<usize>, String> {
+    let n = mesh.vertex_count();
+    let picked: Vec<usize> = match (&s.aabb, &s.indices) {
+        (Some(b), _) => {
+            let (lo, hi) = (DVec3::from(b.min), DVec3::from(b.max));
+            (0..n).filter(|&i| mesh.positions()[i].cmpge(lo).all() && mesh.positions()[i].cmple(hi).all()).collect()
+        }
+        (None, Some(idx)) => {
+            if let Some(&bad) = idx.iter().find(|&&i| i >= n) {
+                return Err(format!("vertex {bad} does not exist (the mesh has {n})"));
+            }
+            idx.clone()
+        }
+        (None, None) => Vec::new(),
+    };
+    if picked.is_empty() {
+        return Err("selects no vertex".into());
+    }
+    Ok(picked)
+}

@@ -1,0 +1,31 @@
+//! The list of methods: a name, a one-line summary and a constructor. Adding a method is one line here.
+
+use super::{Solver, SolverError, rigid};
+use crate::scene::Setup;
+
+/// A registered simulation method.
+#[derive(Debug, Clone, Copy)]
+pub struct Method {
+    /// Name used in scene files, `--method` and the UI.
+    pub name: &'static str,
+    /// One line saying what it is.
+    pub summary: &'static str,
+    /// Build a solver for a realised scene.
+    pub build: fn(&Setup) -> Result<Box<dyn Solver>, SolverError>,
+}
+
+/// Every method, in the order the UI lists them.
+pub const METHODS: &[Method] = &[rigid::METHOD];
+
+/// Look a method up by name.
+pub fn find(name: &str) -> Result<&'static Method, SolverError> {
+    METHODS.iter().find(|m| m.name == name).ok_or_else(|| SolverError::UnknownMethod {
+        name: name.to_string(),
+        available: METHODS.iter().map(|m| m.name).collect::<Vec<_>>().join(", "),
+    })
+}
+
+/// Build the solver the scene's `solver.method` names.
+pub fn build(setup: &Setup) -> Result<Box<dyn Solver>, SolverError> {
+    (find(&setup.scene.solver.method)?.build)(setup)
+}
