@@ -1,3 +1,19 @@
-//! shellwarp command-line interface.
+//! shellwarp command-line interface: parses arguments, then calls one function per subcommand.
 
-fn main() {}
+mod cli;
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+fn main() -> ExitCode {
+    let args = cli::Cli::parse();
+    match cli::run(args) {
+        Ok(code) => code,
+        Err(e) => {
+            // One clear line: the chain of contexts, outermost first.
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

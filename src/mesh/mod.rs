@@ -10,3 +10,5 @@ pub use error::MeshError;
 pub use topology::{Edge, Hinge, Topology};
 pub use trimesh::{TriMesh, vertex_normals};
 pub mod generate;
+#[path = "obj_pending.rs"]
+pub mod obj;

@@ -49,7 +49,8 @@ pub fn parse(text: &str, origin: &Origin, overrides: &[String]) -> Result<Scene,
     let scene: Scene = if overrides.is_empty() {
         toml::from_str(text).map_err(|e| overrides::parse_error(&origin.label, text, &e))?
     } else {
-        let mut table: toml::Table = toml::from_str(text).map_err(|e| overrides::parse_error(&origin.label, text, &e))?;
+        let mut table: toml::Table =
+            toml::from_str(text).map_err(|e| overrides::parse_error(&origin.label, text, &e))?;
         for arg in overrides {
             overrides::apply(&mut table, arg)?;
         }
@@ -64,4 +65,121 @@ pub fn load(name_or_path: &str, overrides: &[String]) -> Result<Setup, SceneErro
     let (text, origin) = find(name_or_path)?;
     let scene = parse(&text, &origin, overrides)?;
     Setup::new(scene, origin)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn origin() -> Origin {
+        Origin { label: "test.toml".into(), dir: PathBuf::new() }
+    }
+
+    const MINIMAL: &str =
+        "name = \"t\"\n[mesh.grid]\nsize = [1.0, 0.1]\nsegments = [4, 1]\n[solver]\nmethod = \"rigid\"\n";
+
+    fn parse_err(text: &str) -> String {
+        parse(text, &origin(), &[]).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn every_builtin_scene_parses_and_validates() {
+        for (name, text) in BUILTIN {
+            let o = Origin { label: format!("{name}.toml"), dir: PathBuf::new() };
+            let s = parse(text, &o, &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(&s.name, name, "scene name matches its registry name");
+        }
+    }
+
+    #[test]
+    fn minimal_scene_gets_defaults() {
+        let s = parse(MINIMAL, &origin(), &[]).unwrap();
+        assert_eq!(s.gravity, [0.0, -9.81, 0.0]);
+        assert_eq!(s.material, Material::default());
+        assert_eq!(s.solver.modes, 8);
+    }
+
+    #[test]
+    fn unknown_key_names_file_line_and_key() {
+        let e = parse_err(&MINIMAL.replace("[solver]", "[solver]\nmodez = 3"));
+        assert!(e.starts_with("test.toml:6:1:"), "{e}");
+        assert!(e.contains("modez"), "{e}");
+    }
+
+    #[test]
+    fn wrong_type_and_missing_key_are_reported() {
+        let e = parse_err(&MINIMAL.replace("segments = [4, 1]", "segments = \"many\""));
+        assert!(e.starts_with("test.toml:4:12: `segments`: invalid type"), "{e}");
+        let e = parse_err(&MINIMAL.replace("name = \"t\"\n", ""));
+        assert!(e.contains("name"), "{e}");
+        let e = parse_err(&MINIMAL.replace("[mesh.grid]", "[mesh.blob]"));
+        assert!(e.contains("blob"), "{e}");
+        let e = parse_err("name = [");
+        assert!(e.starts_with("test.toml:1:"), "{e}");
+    }
+
+    #[test]
+    fn bad_values_name_their_key() {
+        let cases = [
+            ("size = [1.0, 0.1]", "size = [1.0, -0.1]", "mesh.size"),
+            ("name = \"t\"", "name = \"t\"\ngravity = [0.0, nan, 0.0]", "gravity"),
+            ("[solver]", "[material]\ndensity = 0.0\n[solver]", "material.density"),
+            ("[solver]", "[[anchors]]\nindices = []\n[solver]", "anchors[0].indices"),
+            ("[solver]", "[[anchors]]\n[solver]", "anchors[0]"),
+            ("[solver]", "[[anchors]]\nbox = { min = [1, 1, 1], max = [0, 0, 0] }\n[solver]", "anchors[0].box"),
+            (
+                "[solver]",
+                "[[colliders]]\nsphere = { center = [0, 0, 0], radius = -1.0 }\n[solver]",
+                "colliders[0].radius",
+            ),
+            (
+                "[solver]",
+                "[[colliders]]\nplane = { point = [0, 0, 0], normal = [0, 0, 0] }\n[solver]",
+                "colliders[0].normal",
+            ),
+            ("method = \"rigid\"", "method = \"rigid\"\nstep = -0.1", "solver.step"),
+            ("method = \"rigid\"", "method = \"rigid\"\nmodes = 0", "solver.modes"),
+        ];
+        for (from, to, key) in cases {
+            let e = parse_err(&MINIMAL.replace(from, to));
+            assert!(e.starts_with(&format!("test.toml: `{key}`:")), "expected key {key}: {e}");
+        }
+    }
+
+    #[test]
+    fn overrides_apply_and_are_validated() {
+        let s = parse(MINIMAL, &origin(), &["material.k_bend=0.5".into(), "solver.modes=4".into()]).unwrap();
+        assert_eq!(s.material.k_bend, 0.5);
+        assert_eq!(s.solver.modes, 4);
+        let e = parse(MINIMAL, &origin(), &["material.k_bnd=0.5".into()]).unwrap_err().to_string();
+        assert!(e.contains("k_bnd"), "{e}");
+        let e = parse(MINIMAL, &origin(), &["material.k_bend=-2".into()]).unwrap_err().to_string();
+        assert!(e.contains("material.k_bend"), "{e}");
+    }
+
+    #[test]
+    fn selections_resolve_to_vertices_or_fail() {
+        let text = MINIMAL.replace(
+            "[solver]",
+            "[[anchors]]\nbox = { min = [-1, -1, -1], max = [-0.4, 1, 1] }\n[[loads]]\nselect = { indices = [9] }\nforce = [0, -2, 0]\n[solver]",
+        );
+        let setup = Setup::new(parse(&text, &origin(), &[]).unwrap(), origin()).unwrap();
+        // Grid 4×1 cells: vertices (i, j) → 2i + j; x = -0.5 + 0.25 i. Box keeps i = 0.
+        assert_eq!(setup.anchors, vec![0, 1]);
+        assert_eq!(setup.loads[9], glam::DVec3::new(0.0, -2.0, 0.0));
+        assert!((setup.masses().iter().sum::<f64>() - 0.5 * 0.1).abs() < 1e-12);
+        let empty = MINIMAL.replace("[solver]", "[[anchors]]\nbox = { min = [5, 5, 5], max = [6, 6, 6] }\n[solver]");
+        let e = Setup::new(parse(&empty, &origin(), &[]).unwrap(), origin()).unwrap_err().to_string();
+        assert_eq!(e, "test.toml: `anchors[0]`: selects no vertex");
+        let oob = MINIMAL.replace("[solver]", "[[anchors]]\nindices = [99]\n[solver]");
+        let e = Setup::new(parse(&oob, &origin(), &[]).unwrap(), origin()).unwrap_err().to_string();
+        assert!(e.contains("vertex 99 does not exist"), "{e}");
+    }
+
+    #[test]
+    fn find_distinguishes_missing_files_from_unknown_names() {
+        assert!(matches!(find("cantilever"), Ok((_, o)) if o.label == "assets/scenes/cantilever.toml"));
+        assert!(matches!(find("missing.toml"), Err(SceneError::Read { .. })));
+        assert!(matches!(find("no-such-scene"), Err(SceneError::Unknown { .. })));
+    }
 }

@@ -4,16 +4,20 @@ use super::SceneError;
 
 /// Turn a toml error into `file:line:column: message` (line 0 when the error has no position).
 pub(crate) fn parse_error(file: &str, text: &str, e: &toml::de::Error) -> SceneError {
+    let mut message = e.message().trim().replace('\n', " ");
     let (line, column) = match e.span() {
         Some(span) if !text.is_empty() => {
-            let before = &text[..span.start.min(text.len())];
-            let line = before.matches('\n').count() + 1;
-            let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
-            (line, column)
+            let start = span.start.min(text.len());
+            let line_start = text[..start].rfind('\n').map_or(0, |i| i + 1);
+            // Name the key when the error points at a `key = value` line's value.
+            let key = text[line_start..start].split_once('=').map(|(k, _)| k.trim()).filter(|k| !k.is_empty());
+            if let Some(key) = key.filter(|k| !message.contains(*k)) {
+                message = format!("`{key}`: {message}");
+            }
+            (text[..start].matches('\n').count() + 1, start - line_start + 1)
         }
         _ => (0, 0),
     };
-    let message = e.message().trim().replace('\n', " ");
     SceneError::Parse { file: file.to_string(), line, column, message }
 }
 

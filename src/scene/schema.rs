@@ -43,9 +43,10 @@ fn default_gravity() -> [f64; 3] {
     [0.0, -9.81, 0.0]
 }
 
-/// A procedural generator with its parameters, or an OBJ file.
+/// A procedural generator with its parameters, or an OBJ file: a table named after the generator,
+/// e.g. `[mesh.grid]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "generator", rename_all = "kebab-case", deny_unknown_fields)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields)]
 pub enum MeshSource {
     /// Regular grid in the y = 0 plane, centred on the origin: x ∈ ±size[0]/2, z ∈ ±size[1]/2.
     Grid {
@@ -172,9 +173,9 @@ pub struct Load {
     pub force: [f64; 3],
 }
 
-/// A rigid body the mesh collides with.
+/// A rigid body the mesh collides with: `{ sphere = { center = [..], radius = .. } }` or `{ plane = {..} }`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields)]
 pub enum Collider {
     /// A ball.
     Sphere {

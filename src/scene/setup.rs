@@ -71,7 +71,7 @@ fn make_mesh(source: &MeshSource, origin: &Origin) -> Result<TriMesh, MeshError>
         MeshSource::Icosphere { radius, frequency } => generate::icosphere(radius, frequency),
         MeshSource::UvSphere { radius, rings, sectors } => generate::uv_sphere(radius, rings, sectors),
         MeshSource::Creature { length, frequency } => generate::creature(length, frequency),
-        MeshSource::Obj { ref path } => generate::obj::load_obj(&origin.dir.join(path)),
+        MeshSource::Obj { ref path } => crate::mesh::obj::load_obj(&origin.dir.join(path)),
     }
 }
 

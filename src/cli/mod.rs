@@ -1,0 +1,58 @@
+//! Subcommands. Each parses nothing itself: clap hands it typed arguments.
+
+mod scenes;
+mod sim;
+
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand};
+
+/// Real-time thin shells and cloth: modal warping, implicit particle cloth and PBD.
+#[derive(Debug, Parser)]
+#[command(name = "shellwarp", version, about)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// List the built-in scenes and the registered methods.
+    Scenes,
+    /// Run a scene headless and report timing, energy and the final bounding box.
+    Sim(sim::SimArgs),
+}
+
+/// Which scene, with which method and overrides: shared by every subcommand that loads a scene.
+#[derive(Debug, Args)]
+pub struct SceneArgs {
+    /// Built-in scene name (see `shellwarp scenes`) or path to a scene TOML file.
+    #[arg(long, short = 's')]
+    pub scene: String,
+    /// Method to run instead of the scene's own (see `shellwarp scenes`).
+    #[arg(long, short = 'm')]
+    pub method: Option<String>,
+    /// Override a scene value, e.g. `--set material.k_bend=0.02` (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+}
+
+impl SceneArgs {
+    /// Load and realise the scene with the method override and `--set` values applied.
+    pub fn load(&self) -> anyhow::Result<shellwarp::scene::Setup> {
+        let mut overrides = self.set.clone();
+        if let Some(m) = &self.method {
+            shellwarp::solver::registry::find(m)?;
+            overrides.push(format!("solver.method={m}"));
+        }
+        Ok(shellwarp::scene::load(&self.scene, &overrides)?)
+    }
+}
+
+/// Run the parsed command.
+pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    match cli.command {
+        Command::Scenes => scenes::run(),
+        Command::Sim(args) => sim::run(&args),
+    }
+}

@@ -1,0 +1,88 @@
+//! The command-line contract: subcommands, JSON output, and one clear error line with a non-zero exit.
+
+use std::process::Command;
+
+fn shellwarp(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_shellwarp")).args(args).output().expect("binary runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn scenes_lists_every_builtin_and_method() {
+    let (code, out, _) = shellwarp(&["scenes"]);
+    assert_eq!(code, 0);
+    for name in shellwarp::scene::builtin_names() {
+        assert!(out.contains(name), "{name} missing from:\n{out}");
+    }
+    for m in shellwarp::solver::METHODS {
+        assert!(out.contains(m.name), "{} missing", m.name);
+    }
+}
+
+#[test]
+fn sim_json_reports_steps_timing_energy_and_bbox() {
+    let (code, out, err) = shellwarp(&["sim", "--scene", "cantilever", "--method", "rigid", "--steps", "4", "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).expect("one JSON object");
+    assert_eq!(v["steps"], 4);
+    assert_eq!(v["method"], "rigid");
+    assert!(v["step_seconds"]["mean"].as_f64().is_some());
+    assert!(v["final_energy"].as_f64().is_some());
+    let (lo, hi) = (&v["bbox_min"], &v["bbox_max"]);
+    assert!((hi[0].as_f64().unwrap() - lo[0].as_f64().unwrap() - 1.0).abs() < 1e-12, "strip is 1 m long");
+    assert!(v["diverged"].is_null());
+}
+
+#[test]
+fn sim_writes_the_final_mesh_as_obj() {
+    let dir = std::env::temp_dir().join(format!("shellwarp-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let obj = dir.join("out.obj");
+    let (code, _, err) =
+        shellwarp(&["sim", "-s", "cantilever", "-m", "rigid", "--steps", "1", "--obj", obj.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let mesh = shellwarp::mesh::obj::load_obj(&obj).expect("written OBJ loads back");
+    assert_eq!(mesh.vertex_count(), 205);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bad_input_gives_one_clear_line_and_nonzero_exit() {
+    let cases: [(&[&str], &str); 5] = [
+        (&["sim", "--scene", "no-such-scene"], "neither a built-in scene"),
+        (&["sim", "--scene", "missing/file.toml"], "missing/file.toml: cannot read"),
+        (&["sim", "--scene", "cantilever", "--method", "warp9"], "unknown method `warp9`"),
+        (
+            &["sim", "--scene", "cantilever", "--set", "material.k_bend=nan"],
+            "`material.k_bend`: must be a finite number",
+        ),
+        (&["sim", "--scene", "cantilever", "--set", "material.k_bent=1"], "unknown field `k_bent`"),
+    ];
+    for (args, expected) in cases {
+        let (code, out, err) = shellwarp(args);
+        assert_ne!(code, 0, "{args:?} should fail");
+        assert!(out.is_empty(), "{args:?} printed to stdout: {out}");
+        assert_eq!(err.lines().count(), 1, "{args:?}: one line expected, got:\n{err}");
+        assert!(err.starts_with("error: ") && err.contains(expected), "{args:?}: {err}");
+    }
+}
+
+#[test]
+fn broken_scene_file_is_reported_with_its_path() {
+    let dir = std::env::temp_dir().join(format!("shellwarp-cli-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("bad.toml");
+    std::fs::write(
+        &path,
+        "name = \"bad\"\n[mesh.grid]\nsize = [1.0, 1.0]\nsegments = [2, 2]\n[solver]\nmethod = \"rigid\"\nstepp = 1\n",
+    )
+    .unwrap();
+    let (code, _, err) = shellwarp(&["sim", "--scene", path.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(err.contains("bad.toml:7:1:") && err.contains("stepp"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
