@@ -6,6 +6,7 @@
 
 mod drag;
 mod error;
+pub mod modal;
 mod params;
 pub mod registry;
 mod rigid;
