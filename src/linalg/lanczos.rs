@@ -100,6 +100,7 @@ pub fn lowest_modes(
     let mut solves = 0;
     let mut mx = vec![0.0; n];
     let mut w = vec![0.0; n];
+    let mut residual_beta = 0.0;
     for restart in 0..=options.max_restarts {
         // Expand the basis to kmax vectors.
         for j in kept..kmax {
@@ -147,56 +148,54 @@ pub fn lowest_modes(
             }
             if j + 1 < kmax {
                 basis.push(w.clone());
-            }
-            if j + 1 == kmax {
+            } else {
                 // Residual direction of the full basis, for the restart.
-                let residual_beta = if beta <= 1e-14 * coef[j].abs().max(f64::MIN_POSITIVE) { 0.0 } else { beta };
-                let eig = SymmetricEigen::new(h.clone());
-                let mut order: Vec<usize> = (0..kmax).collect();
-                order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
-                let converged = order
-                    .iter()
-                    .take(count)
-                    .take_while(|&&i| {
-                        residual_beta * eig.eigenvectors[(kmax - 1, i)].abs()
-                            <= options.tolerance * eig.eigenvalues[i].abs()
-                    })
-                    .count();
-                let ritz = |sel: &[usize]| -> Vec<Vec<f64>> {
-                    sel.iter()
-                        .map(|&i| {
-                            let mut x = vec![0.0; n];
-                            for (k, b) in basis.iter().enumerate() {
-                                let y = eig.eigenvectors[(k, i)];
-                                x.iter_mut().zip(b).for_each(|(o, v)| *o += y * v);
-                            }
-                            x
-                        })
-                        .collect()
-                };
-                if converged == count || kmax == n {
-                    let sel: Vec<usize> = order[..count].to_vec();
-                    let values = sel.iter().map(|&i| options.shift + 1.0 / eig.eigenvalues[i]).collect();
-                    return Ok(EigenPairs { values, vectors: ritz(&sel), solves });
-                }
-                if restart == options.max_restarts {
-                    return Err(LanczosError::NoConvergence { converged, wanted: count, restarts: restart });
-                }
-                // Thick restart: keep the best `keep` Ritz vectors, then the residual direction.
-                let sel: Vec<usize> = order[..keep].to_vec();
-                let mut new_basis = ritz(&sel);
-                h.fill(0.0);
-                for (a, &i) in sel.iter().enumerate() {
-                    h[(a, a)] = eig.eigenvalues[i];
-                    let arrow = residual_beta * eig.eigenvectors[(kmax - 1, i)];
-                    h[(keep, a)] = arrow;
-                    h[(a, keep)] = arrow;
-                }
-                new_basis.push(w.clone());
-                basis = new_basis;
-                kept = keep;
+                residual_beta = if beta <= 1e-14 * coef[j].abs().max(f64::MIN_POSITIVE) { 0.0 } else { beta };
             }
         }
+        let eig = SymmetricEigen::new(h.clone());
+        let mut order: Vec<usize> = (0..kmax).collect();
+        order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+        let converged = order
+            .iter()
+            .take(count)
+            .take_while(|&&i| {
+                residual_beta * eig.eigenvectors[(kmax - 1, i)].abs() <= options.tolerance * eig.eigenvalues[i].abs()
+            })
+            .count();
+        let ritz = |sel: &[usize]| -> Vec<Vec<f64>> {
+            sel.iter()
+                .map(|&i| {
+                    let mut x = vec![0.0; n];
+                    for (k, b) in basis.iter().enumerate() {
+                        let y = eig.eigenvectors[(k, i)];
+                        x.iter_mut().zip(b).for_each(|(o, v)| *o += y * v);
+                    }
+                    x
+                })
+                .collect()
+        };
+        if converged == count || kmax == n {
+            let sel: Vec<usize> = order[..count].to_vec();
+            let values = sel.iter().map(|&i| options.shift + 1.0 / eig.eigenvalues[i]).collect();
+            return Ok(EigenPairs { values, vectors: ritz(&sel), solves });
+        }
+        if restart == options.max_restarts {
+            return Err(LanczosError::NoConvergence { converged, wanted: count, restarts: restart });
+        }
+        // Thick restart: keep the best `keep` Ritz vectors, then the residual direction.
+        let sel: Vec<usize> = order[..keep].to_vec();
+        let mut new_basis = ritz(&sel);
+        h.fill(0.0);
+        for (a, &i) in sel.iter().enumerate() {
+            h[(a, a)] = eig.eigenvalues[i];
+            let arrow = residual_beta * eig.eigenvectors[(kmax - 1, i)];
+            h[(keep, a)] = arrow;
+            h[(a, keep)] = arrow;
+        }
+        new_basis.push(w.clone());
+        basis = new_basis;
+        kept = keep;
     }
     Err(LanczosError::NoConvergence { converged: 0, wanted: count, restarts: options.max_restarts })
 }
@@ -241,10 +240,7 @@ mod tests {
             },
             LanczosOptions { shift, ..Default::default() },
         )
-        .map(|p| {
-            assert_eq!(p.vectors[0].len(), n);
-            p
-        })
+        .inspect(|p| assert_eq!(p.vectors[0].len(), n))
         .unwrap()
     }
 
