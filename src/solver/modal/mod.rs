@@ -1,4 +1,6 @@
 //! Modal methods for shells: linear modal analysis (LMA) and modal warping (MWTS).
 
+pub mod basis;
+pub mod dynamics;
 pub mod rotation;
 pub mod warp;
