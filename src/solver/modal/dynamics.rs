@@ -246,8 +246,8 @@ mod tests {
         for _ in 0..2000 {
             dynamics.step(&P, &DragSet::default());
         }
-        for j in 0..2 {
-            let want = g[j] / dynamics.basis.eigenvalues[j];
+        for (j, gj) in g.iter().enumerate() {
+            let want = gj / dynamics.basis.eigenvalues[j];
             assert!((dynamics.q[j] - want).abs() < 1e-9 * want.abs(), "mode {j}: {} vs {want}", dynamics.q[j]);
         }
     }
