@@ -71,6 +71,19 @@ impl DragSet {
         Ok(id)
     }
 
+    /// Add a constraint under a caller-chosen handle (for callers that must name it before it exists,
+    /// like a UI talking to another thread). Fails if the handle is taken.
+    pub fn insert(&mut self, id: DragId, drag: Drag) -> Result<(), SolverError> {
+        self.check(&drag)?;
+        if self.index_of(id).is_ok() {
+            return Err(SolverError::BadDrag(format!("drag id {} is already in use", id.0)));
+        }
+        self.next_id = self.next_id.max(id.0 + 1);
+        self.drags.push((id, drag));
+        self.revision += 1;
+        Ok(())
+    }
+
     /// Move an existing constraint's target (its kind must stay the same).
     pub fn retarget(&mut self, id: DragId, kind: DragKind) -> Result<(), SolverError> {
         let idx = self.index_of(id)?;
@@ -143,6 +156,9 @@ mod tests {
         assert_eq!(set.iter().next().unwrap().1.kind, DragKind::Position(DVec3::ZERO));
         set.remove(a).unwrap();
         assert!(set.is_empty());
+        set.insert(DragId(10), Drag { vertex: 2, kind: DragKind::Position(DVec3::ONE) }).unwrap();
+        assert!(set.insert(DragId(10), Drag { vertex: 2, kind: DragKind::Position(DVec3::ONE) }).is_err());
+        assert_eq!(set.add(Drag { vertex: 0, kind: DragKind::Position(DVec3::ONE) }).unwrap(), DragId(11));
         assert!(set.remove(a).is_err());
     }
 }

@@ -1,0 +1,310 @@
+//! The simulation thread: owns the solver, steps it at its fixed step with real-time pacing, takes
+//! commands through a channel and hands finished snapshots to the renderer through a wait-free
+//! triple buffer, so neither side ever blocks the other and the reader never sees a half-written frame.
+
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+use triple_buffer::{Output, triple_buffer};
+
+use crate::solver::{Drag, DragId, DragKind, ParamValue, Solver, SolverError, StepStats};
+
+/// How simulated time relates to wall-clock time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Pacing {
+    /// Simulated time advances at `speed` × wall time (1 = real time, 0.25 = slow motion).
+    Scaled(f64),
+    /// Step as fast as possible.
+    AsFastAsPossible,
+}
+
+/// What the simulation is doing.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SimStatus {
+    /// Stepping.
+    Running,
+    /// Waiting for play or single-step.
+    Paused,
+    /// Stopped by divergence; `Reset` resumes.
+    Diverged(String),
+}
+
+/// Everything the UI and renderer need from one published state.
+#[derive(Debug, Clone)]
+pub struct Snapshot {
+    /// Vertex positions after the latest step.
+    pub positions: Vec<DVec3>,
+    /// Steps taken since the last reset.
+    pub steps: u64,
+    /// Statistics of the latest step.
+    pub stats: StepStats,
+    /// Running, paused or diverged.
+    pub status: SimStatus,
+    /// Active drag constraints.
+    pub drags: Vec<(DragId, Drag)>,
+    /// The solver's parameters and current values.
+    pub params: Vec<ParamValue>,
+    /// The solver's method name.
+    pub method: &'static str,
+    /// Wall-clock seconds spent running since the last reset (for sim time vs wall time).
+    pub wall_time: f64,
+    /// The latest refused command, if any.
+    pub last_error: Option<String>,
+}
+
+/// A request to the simulation thread.
+pub enum Command {
+    /// Set a solver parameter.
+    SetParam(String, f64),
+    /// Add a drag constraint under a caller-chosen id.
+    AddDrag(DragId, Drag),
+    /// Move a drag's target.
+    MoveDrag(DragId, DragKind),
+    /// Remove a drag.
+    RemoveDrag(DragId),
+    /// Back to the initial state; clears a divergence.
+    Reset,
+    /// Pause or resume.
+    SetPaused(bool),
+    /// Take exactly one step (while paused).
+    StepOnce,
+    /// Change pacing.
+    SetPacing(Pacing),
+    /// Swap in another solver (method or scene switch).
+    Replace(Box<dyn Solver>),
+    /// End the thread.
+    Quit,
+}
+
+/// The UI side: send commands, read the latest snapshot.
+pub struct SimHandle {
+    commands: Sender<Command>,
+    output: Output<Snapshot>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl SimHandle {
+    /// Start the thread with `solver`, running (or paused).
+    pub fn spawn(solver: Box<dyn Solver>, paused: bool, pacing: Pacing) -> Self {
+        let (tx, rx) = mpsc::channel();
+        let initial = snapshot_of(solver.as_ref(), 0, StepStats::default(), status(paused), 0.0, None);
+        let (mut input, output) = triple_buffer(&initial);
+        let thread = std::thread::Builder::new()
+            .name("shellwarp-sim".into())
+            .spawn(move || {
+                let mut sim = SimLoop {
+                    solver,
+                    paused,
+                    pacing,
+                    steps: 0,
+                    stats: StepStats::default(),
+                    diverged: None,
+                    last_error: None,
+                    running_wall: 0.0,
+                };
+                sim.run(&rx, |snap| {
+                    *input.input_buffer_mut() = snap;
+                    input.publish();
+                });
+            })
+            .ok();
+        Self { commands: tx, output, thread }
+    }
+
+    /// Send a command (ignored if the thread has ended).
+    pub fn send(&self, command: Command) {
+        let _ = self.commands.send(command);
+    }
+
+    /// The latest published snapshot (never blocks; never torn).
+    pub fn latest(&mut self) -> &Snapshot {
+        self.output.read()
+    }
+
+    /// Whether a snapshot newer than the last one read is waiting.
+    pub fn updated(&self) -> bool {
+        self.output.updated()
+    }
+}
+
+impl Drop for SimHandle {
+    fn drop(&mut self) {
+        let _ = self.commands.send(Command::Quit);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+fn status(paused: bool) -> SimStatus {
+    if paused { SimStatus::Paused } else { SimStatus::Running }
+}
+
+fn snapshot_of(
+    solver: &dyn Solver,
+    steps: u64,
+    stats: StepStats,
+    status: SimStatus,
+    wall_time: f64,
+    last_error: Option<String>,
+) -> Snapshot {
+    Snapshot {
+        positions: solver.positions().to_vec(),
+        steps,
+        stats,
+        status,
+        drags: solver.drags().iter().copied().collect(),
+        params: solver.params(),
+        method: solver.method(),
+        wall_time,
+        last_error,
+    }
+}
+
+struct SimLoop {
+    solver: Box<dyn Solver>,
+    paused: bool,
+    pacing: Pacing,
+    steps: u64,
+    stats: StepStats,
+    diverged: Option<String>,
+    last_error: Option<String>,
+    running_wall: f64,
+}
+
+/// When more than this much simulated time is owed, the backlog is dropped instead of caught up.
+const MAX_BACKLOG: f64 = 0.25;
+
+impl SimLoop {
+    fn status(&self) -> SimStatus {
+        match &self.diverged {
+            Some(reason) => SimStatus::Diverged(reason.clone()),
+            None => status(self.paused),
+        }
+    }
+
+    fn publish(&self, out: &mut impl FnMut(Snapshot)) {
+        out(snapshot_of(
+            self.solver.as_ref(),
+            self.steps,
+            self.stats,
+            self.status(),
+            self.running_wall,
+            self.last_error.clone(),
+        ));
+    }
+
+    /// Apply one command; returns false on Quit.
+    fn apply(&mut self, command: Command) -> bool {
+        let result: Result<(), SolverError> = match command {
+            Command::SetParam(name, value) => self.solver.set_param(&name, value),
+            Command::AddDrag(id, drag) => self.solver.drags_mut().insert(id, drag),
+            Command::MoveDrag(id, kind) => self.solver.drags_mut().retarget(id, kind),
+            Command::RemoveDrag(id) => self.solver.drags_mut().remove(id).map(|_| ()),
+            Command::Reset => {
+                self.solver.reset();
+                self.steps = 0;
+                self.stats = StepStats::default();
+                self.diverged = None;
+                self.running_wall = 0.0;
+                Ok(())
+            }
+            Command::SetPaused(p) => {
+                self.paused = p;
+                Ok(())
+            }
+            Command::StepOnce => {
+                self.paused = true;
+                self.step();
+                Ok(())
+            }
+            Command::SetPacing(p) => {
+                self.pacing = p;
+                Ok(())
+            }
+            Command::Replace(solver) => {
+                self.solver = solver;
+                self.steps = 0;
+                self.stats = StepStats::default();
+                self.diverged = None;
+                self.running_wall = 0.0;
+                Ok(())
+            }
+            Command::Quit => return false,
+        };
+        self.last_error = result.err().map(|e| e.to_string());
+        true
+    }
+
+    fn step(&mut self) {
+        if self.diverged.is_some() {
+            return;
+        }
+        match self.solver.step() {
+            Ok(stats) => {
+                self.stats = stats;
+                self.steps += 1;
+            }
+            Err(e) => self.diverged = Some(e.to_string()),
+        }
+    }
+
+    fn run(&mut self, rx: &Receiver<Command>, mut out: impl FnMut(Snapshot)) {
+        let mut clock = Instant::now();
+        let mut owed = 0.0; // simulated seconds due but not yet stepped
+        loop {
+            // Commands first; block briefly when there is nothing to step.
+            let idle = self.paused || self.diverged.is_some();
+            let first = if idle {
+                match rx.recv_timeout(Duration::from_millis(20)) {
+                    Ok(c) => Some(c),
+                    Err(RecvTimeoutError::Timeout) => None,
+                    Err(RecvTimeoutError::Disconnected) => return,
+                }
+            } else {
+                rx.try_recv().ok()
+            };
+            let mut changed = false;
+            for command in first.into_iter().chain(std::iter::from_fn(|| rx.try_recv().ok())) {
+                if !self.apply(command) {
+                    return;
+                }
+                changed = true;
+            }
+            let now = Instant::now();
+            let elapsed = now.duration_since(clock).as_secs_f64();
+            clock = now;
+            if self.paused || self.diverged.is_some() {
+                owed = 0.0;
+                if changed {
+                    self.publish(&mut out);
+                }
+                continue;
+            }
+            self.running_wall += elapsed;
+            let h = self.solver.time_step();
+            let due = match self.pacing {
+                Pacing::AsFastAsPossible => true,
+                Pacing::Scaled(speed) => {
+                    owed = (owed + elapsed * speed).min(MAX_BACKLOG.max(h));
+                    owed >= h
+                }
+            };
+            if due {
+                owed -= h;
+                self.step();
+                self.publish(&mut out);
+            } else {
+                if changed {
+                    self.publish(&mut out);
+                }
+                if let Pacing::Scaled(speed) = self.pacing {
+                    let wait = ((h - owed) / speed.max(1e-6)).clamp(0.0, 0.005);
+                    std::thread::sleep(Duration::from_secs_f64(wait));
+                }
+            }
+        }
+    }
+}
