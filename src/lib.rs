@@ -4,3 +4,4 @@
 //! and the positions become a frame for the renderer or numbers for the evaluator.
 
 pub mod mesh;
+pub mod render;
