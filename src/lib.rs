@@ -1,10 +1,12 @@
 //! shellwarp: real-time thin shells and cloth.
 //!
 //! Data flows one way: a [`scene`] file becomes a [`mesh`] and parameters, a [`solver`] steps it,
-//! and the positions become a frame for the renderer or numbers for the evaluator.
+//! and the positions become a frame for the [`render`]er or numbers for the evaluator.
+//! The [`app`] ties solver and renderer together; nothing below it knows about it.
 
 pub mod app;
 pub mod linalg;
 pub mod mesh;
+pub mod render;
 pub mod scene;
 pub mod solver;

@@ -1,0 +1,90 @@
+//! Finding an adapter and opening a device, for headless use or for a window surface.
+
+use super::error::RenderError;
+
+/// The wgpu objects every renderer needs. Fields are public so a window can share them with e.g. egui.
+#[derive(Debug)]
+pub struct Gpu {
+    /// The wgpu instance the adapter came from (needed to create surfaces).
+    pub instance: wgpu::Instance,
+    /// The physical (or software) adapter.
+    pub adapter: wgpu::Adapter,
+    /// The logical device.
+    pub device: wgpu::Device,
+    /// The device's command queue.
+    pub queue: wgpu::Queue,
+}
+
+impl Gpu {
+    /// Open a device without any window: tries a high-performance adapter, then a fallback (software)
+    /// adapter, then any adapter at all. Honours `WGPU_BACKEND` and related environment variables.
+    pub fn new_headless() -> Result<Self, RenderError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pick_adapter(&instance, None)?;
+        Self::from_adapter(instance, adapter)
+    }
+
+    /// Open a device whose adapter can present to `surface` (created from `instance` by the window code).
+    pub fn for_surface(instance: wgpu::Instance, surface: &wgpu::Surface<'_>) -> Result<Self, RenderError> {
+        let adapter = pick_adapter(&instance, Some(surface))?;
+        Self::from_adapter(instance, adapter)
+    }
+
+    /// Open a device on an adapter chosen by the caller.
+    pub fn from_adapter(instance: wgpu::Instance, adapter: wgpu::Adapter) -> Result<Self, RenderError> {
+        // Ask for the adapter's real format capabilities (e.g. MSAA counts) when it can report them.
+        let required_features = adapter.features() & wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
+        let desc = wgpu::DeviceDescriptor {
+            label: Some("shellwarp device"),
+            required_features,
+            required_limits: adapter.limits(),
+            ..Default::default()
+        };
+        let (device, queue) =
+            pollster::block_on(adapter.request_device(&desc)).map_err(|e| RenderError::RequestDevice(e.to_string()))?;
+        Ok(Self { instance, adapter, device, queue })
+    }
+
+    /// Human-readable adapter name, e.g. `llvmpipe (LLVM 19.1.7, 256 bits)`.
+    pub fn adapter_name(&self) -> String {
+        self.adapter.get_info().name
+    }
+
+    /// Full adapter information (name, backend, driver, device type).
+    pub fn adapter_info(&self) -> wgpu::AdapterInfo {
+        self.adapter.get_info()
+    }
+
+    /// Whether textures of `format` can be rendered with `count` samples per pixel on this device.
+    pub fn supports_sample_count(&self, format: wgpu::TextureFormat, count: u32) -> bool {
+        if count <= 1 {
+            return true;
+        }
+        let adapter_ok = self.adapter.get_texture_format_features(format).flags.sample_count_supported(count);
+        // Without the adapter-specific feature, wgpu validates against the WebGPU guarantees only.
+        let device_features = self.device.features();
+        let device_ok = device_features.contains(wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES)
+            || format.guaranteed_format_features(device_features).flags.sample_count_supported(count);
+        adapter_ok && device_ok
+    }
+}
+
+/// Try, in order: high performance, forced fallback, then the first adapter the instance lists.
+fn pick_adapter(instance: &wgpu::Instance, surface: Option<&wgpu::Surface<'_>>) -> Result<wgpu::Adapter, RenderError> {
+    for force_fallback_adapter in [false, true] {
+        let options = wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter,
+            compatible_surface: surface,
+            ..Default::default()
+        };
+        if let Ok(adapter) = pollster::block_on(instance.request_adapter(&options)) {
+            return Ok(adapter);
+        }
+    }
+    let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+    adapters
+        .into_iter()
+        .find(|a| surface.is_none_or(|s| a.is_surface_supported(s)))
+        .ok_or(RenderError::NoAdapter)
+}
