@@ -1,3 +1,4 @@
 //! The interactive viewer: simulation thread and hand-off (UI-independent), window, panel, picking.
 
+pub mod scene_view;
 pub mod sim_thread;

@@ -1,5 +1,6 @@
 //! Subcommands. Each parses nothing itself: clap hands it typed arguments.
 
+mod render;
 mod scenes;
 mod sim;
 
@@ -19,6 +20,8 @@ pub struct Cli {
 enum Command {
     /// List the built-in scenes and the registered methods.
     Scenes,
+    /// Run a scene for some frames and save a picture (PNG), without a window.
+    Render(render::RenderArgs),
     /// Run a scene headless and report timing, energy and the final bounding box.
     Sim(sim::SimArgs),
 }
@@ -53,6 +56,7 @@ impl SceneArgs {
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Scenes => scenes::run(),
+        Command::Render(args) => render::run(&args),
         Command::Sim(args) => sim::run(&args),
     }
 }

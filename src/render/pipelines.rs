@@ -94,7 +94,11 @@ impl Pipelines {
                     buffers: &[Some(vertex)],
                 },
                 primitive: wgpu::PrimitiveState {
-                    topology: if lines { wgpu::PrimitiveTopology::LineList } else { wgpu::PrimitiveTopology::TriangleList },
+                    topology: if lines {
+                        wgpu::PrimitiveTopology::LineList
+                    } else {
+                        wgpu::PrimitiveTopology::TriangleList
+                    },
                     front_face: wgpu::FrontFace::Ccw,
                     // Shells are two-sided: never cull.
                     cull_mode: None,

@@ -1,0 +1,158 @@
+//! Turning a scene and a solver state into a render [`Frame`]: the one place that decides how a
+//! simulation looks, shared by the window, the headless `render` command and the evaluator.
+
+use glam::{DVec3, Vec3};
+
+use crate::mesh::generate;
+use crate::render::{Camera, Frame, Marker, MeshDraw};
+use crate::scene::{Collider, Setup};
+use crate::solver::{Drag, DragId, DragKind};
+
+/// Front (outside) colour of simulated surfaces, linear RGBA.
+pub const FRONT: [f32; 4] = [0.85, 0.38, 0.12, 1.0];
+/// Back (inside) colour of simulated surfaces.
+pub const BACK: [f32; 4] = [0.10, 0.45, 0.50, 1.0];
+/// Wireframe overlay colour.
+pub const WIRE: [f32; 4] = [0.02, 0.02, 0.03, 1.0];
+const COLLIDER: [f32; 4] = [0.55, 0.57, 0.62, 1.0];
+const ANCHOR: [f32; 4] = [0.15, 0.15, 0.9, 1.0];
+const POSITION_DRAG: [f32; 4] = [0.95, 0.85, 0.1, 1.0];
+const ORIENTATION_DRAG: [f32; 4] = [0.8, 0.1, 0.8, 1.0];
+const GRID: [f32; 4] = [0.25, 0.27, 0.32, 0.6];
+
+/// How to draw.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ViewOptions {
+    /// Overlay the simulated mesh's edges.
+    pub wireframe: bool,
+}
+
+/// The parts of a scene's picture that do not change while it runs, built once.
+#[derive(Debug, Clone)]
+pub struct SceneView {
+    camera: Camera,
+    triangles: Vec<[u32; 3]>,
+    anchors: Vec<usize>,
+    colliders: Vec<MeshDraw>,
+    grid_height: f32,
+    grid_extent: f32,
+    marker_size: f32,
+}
+
+fn f32x3(v: DVec3) -> [f32; 3] {
+    v.as_vec3().to_array()
+}
+
+impl SceneView {
+    /// Prepare the static geometry of `setup`: camera, colliders, ground grid, anchors.
+    pub fn new(setup: &Setup) -> Self {
+        let c = &setup.scene.camera;
+        let mut camera = Camera::look_at(Vec3::from(c.eye.map(|x| x as f32)), Vec3::from(c.target.map(|x| x as f32)));
+        camera.fov_y_deg = c.fov_deg as f32;
+        let (lo, hi) = setup.mesh.bounding_box();
+        let size = (hi - lo).max_element().max(1e-3);
+        let mut grid_height = (lo.y - 0.35 * size) as f32;
+        let mut colliders = Vec::new();
+        for collider in &setup.scene.colliders {
+            match *collider {
+                Collider::Sphere { center, radius } => {
+                    if let Ok(ball) = generate::icosphere(radius * 0.995, 12) {
+                        let c = DVec3::from(center);
+                        let positions = ball.positions().iter().map(|&p| f32x3(p + c)).collect();
+                        colliders.push(MeshDraw::from_positions(
+                            positions,
+                            triangles_u32(ball.triangles()),
+                            COLLIDER,
+                            COLLIDER,
+                        ));
+                    }
+                }
+                Collider::Plane { point, normal } => {
+                    let n = DVec3::from(normal).normalize();
+                    if n.y > 0.99 {
+                        grid_height = point[1] as f32;
+                    }
+                    let p = DVec3::from(point);
+                    let (t, b) = n.any_orthonormal_pair();
+                    let e = 2.0 * size;
+                    let corners = [p - t * e - b * e, p + t * e - b * e, p + t * e + b * e, p - t * e + b * e];
+                    let tris =
+                        if t.cross(b).dot(n) > 0.0 { vec![[0, 1, 2], [0, 2, 3]] } else { vec![[0, 2, 1], [0, 3, 2]] };
+                    let quad = MeshDraw::from_positions(
+                        corners.iter().map(|&v| f32x3(v)).collect(),
+                        tris,
+                        [0.8, 0.8, 0.78, 1.0],
+                        COLLIDER,
+                    );
+                    colliders.push(quad);
+                }
+            }
+        }
+        Self {
+            camera,
+            triangles: triangles_u32(setup.mesh.triangles()),
+            anchors: setup.anchors.clone(),
+            colliders,
+            grid_height,
+            grid_extent: (2.0 * size) as f32,
+            marker_size: (0.012 * size) as f32,
+        }
+    }
+
+    /// The camera the scene file asks for.
+    pub fn camera(&self) -> Camera {
+        self.camera
+    }
+
+    /// The frame for the simulated `positions` with these drags, seen by `camera`.
+    pub fn frame(&self, camera: Camera, positions: &[DVec3], drags: &[(DragId, Drag)], options: ViewOptions) -> Frame {
+        let mut frame = Frame::new(camera);
+        let spacing = nice_spacing(self.grid_extent / 10.0);
+        frame.ground_grid(self.grid_height, self.grid_extent, spacing, GRID);
+        frame.meshes.extend(self.colliders.iter().cloned());
+        let mut surface = MeshDraw::from_positions(
+            positions.iter().map(|&p| f32x3(p)).collect(),
+            self.triangles.clone(),
+            FRONT,
+            BACK,
+        );
+        if options.wireframe {
+            surface = surface.with_wireframe(WIRE);
+        }
+        frame.meshes.push(surface);
+        for &a in &self.anchors {
+            frame.markers.push(Marker { position: f32x3(positions[a]), size: self.marker_size, color: ANCHOR });
+        }
+        for (_, d) in drags {
+            let p = positions.get(d.vertex).copied().unwrap_or_default();
+            match d.kind {
+                DragKind::Position(target) => {
+                    frame.markers.push(Marker {
+                        position: f32x3(target),
+                        size: 2.0 * self.marker_size,
+                        color: POSITION_DRAG,
+                    });
+                    frame.line(f32x3(p), f32x3(target), POSITION_DRAG);
+                }
+                DragKind::Orientation(_) => {
+                    frame.markers.push(Marker {
+                        position: f32x3(p),
+                        size: 2.0 * self.marker_size,
+                        color: ORIENTATION_DRAG,
+                    });
+                }
+            }
+        }
+        frame
+    }
+}
+
+fn triangles_u32(t: &[[usize; 3]]) -> Vec<[u32; 3]> {
+    t.iter().map(|t| t.map(|i| i as u32)).collect()
+}
+
+/// 1, 2 or 5 times a power of ten, near `x`.
+fn nice_spacing(x: f32) -> f32 {
+    let p = 10f32.powf(x.log10().floor());
+    [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * p).min_by(|a, b| (a - x).abs().total_cmp(&(b - x).abs())).unwrap_or(p)
+}
