@@ -1,4 +1,5 @@
 //! The interactive viewer: simulation thread and hand-off (UI-independent), window, panel, picking.
 
+pub mod panel;
 pub mod scene_view;
 pub mod sim_thread;

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use triple_buffer::{Output, triple_buffer};
 
-use crate::solver::{Drag, DragId, DragKind, ParamValue, Solver, SolverError, StepStats};
+use crate::solver::{Drag, DragId, DragKind, ParamValue, Progress, Solver, SolverError, StepStats};
 
 /// How simulated time relates to wall-clock time.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,6 +52,8 @@ pub struct Snapshot {
     pub wall_time: f64,
     /// The latest refused command, if any.
     pub last_error: Option<String>,
+    /// The solver's background work, if any.
+    pub progress: Option<Progress>,
 }
 
 /// A request to the simulation thread.
@@ -160,6 +162,7 @@ fn snapshot_of(
         method: solver.method(),
         wall_time,
         last_error,
+        progress: solver.progress(),
     }
 }
 

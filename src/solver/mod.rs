@@ -49,4 +49,18 @@ pub trait Solver: Send {
 
     /// Mutable access to the drag constraints: add, move or remove while running.
     fn drags_mut(&mut self) -> &mut DragSet;
+
+    /// Background work in progress (e.g. recomputing modes after a parameter change), if any.
+    fn progress(&self) -> Option<Progress> {
+        None
+    }
+}
+
+/// A background task's label and completed fraction in `[0, 1]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Progress {
+    /// What is being computed.
+    pub label: String,
+    /// Fraction done.
+    pub fraction: f32,
 }

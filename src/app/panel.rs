@@ -1,0 +1,320 @@
+//! The egui side panel: scene and method pickers, the solver's parameters (generated from the
+//! [`ParamSpec`]s it publishes, so new solvers need no UI code), transport controls, statistics, a
+//! live plot, and the list of drag constraints. It only returns [`UiAction`]s; it never touches a
+//! solver, so it can be tested with egui_kittest on its own.
+
+use std::collections::{BTreeMap, VecDeque};
+
+use egui::{Color32, RichText};
+use egui_plot::{Legend, Line, Plot};
+
+use super::sim_thread::{Pacing, SimStatus, Snapshot};
+use crate::solver::{DragId, DragKind, ParamSpec};
+
+/// What the user asked for this frame.
+#[derive(Debug, Clone, PartialEq)]
+pub enum UiAction {
+    /// Set a solver parameter (already checked against its spec).
+    SetParam(String, f64),
+    /// Pause (true) or play (false).
+    SetPaused(bool),
+    /// Take one step.
+    StepOnce,
+    /// Back to the initial state.
+    Reset,
+    /// Change pacing.
+    SetPacing(Pacing),
+    /// Remove one drag constraint.
+    RemoveDrag(DragId),
+    /// Load another scene (by built-in name).
+    SwitchScene(String),
+    /// Run the current scene with another method.
+    SwitchMethod(String),
+    /// Save a screenshot.
+    Screenshot,
+}
+
+/// What a mouse drag on the surface adds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DragMode {
+    /// A position constraint that follows the pointer in the view plane.
+    #[default]
+    Position,
+    /// An orientation constraint rotated with the pointer.
+    Orientation,
+}
+
+/// The panel's own state between frames.
+#[derive(Debug, Clone)]
+pub struct PanelState {
+    /// Built-in scene names to offer.
+    pub scenes: Vec<String>,
+    /// Method names to offer.
+    pub methods: Vec<String>,
+    /// The scene shown.
+    pub scene: String,
+    /// Draw the mesh's edges.
+    pub wireframe: bool,
+    /// What a mouse drag adds.
+    pub drag_mode: DragMode,
+    /// Real time (1), slow motion (< 1), or as fast as possible (None).
+    pub speed: Option<f64>,
+    /// Text being edited, per parameter.
+    edits: BTreeMap<&'static str, String>,
+    /// Why the last entry of a parameter was refused.
+    errors: BTreeMap<&'static str, String>,
+    /// Recent (sim time, step ms, energy).
+    history: VecDeque<[f64; 3]>,
+    last_step: u64,
+    /// Frames per second of the window, for display.
+    pub fps: f64,
+}
+
+const HISTORY: usize = 600;
+
+impl PanelState {
+    /// A panel offering these scenes and methods, showing `scene`.
+    pub fn new(scenes: Vec<String>, methods: Vec<String>, scene: String) -> Self {
+        Self {
+            scenes,
+            methods,
+            scene,
+            wireframe: false,
+            drag_mode: DragMode::Position,
+            speed: Some(1.0),
+            edits: BTreeMap::new(),
+            errors: BTreeMap::new(),
+            history: VecDeque::new(),
+            last_step: 0,
+            fps: 0.0,
+        }
+    }
+
+    /// The refusal message currently shown for a parameter, if any.
+    pub fn error(&self, name: &str) -> Option<&str> {
+        self.errors.get(name).map(String::as_str)
+    }
+
+    /// Check typed text against a spec: the value, or the message to show.
+    fn accept(spec: &ParamSpec, text: &str) -> Result<f64, String> {
+        let value: f64 = text.trim().parse().map_err(|_| format!("`{}` is not a number", text.trim()))?;
+        spec.check(value).map_err(|e| e.to_string())
+    }
+
+    fn record(&mut self, snap: &Snapshot) {
+        if snap.steps < self.last_step {
+            self.history.clear();
+        }
+        if snap.steps != self.last_step {
+            self.history.push_back([snap.stats.sim_time, snap.stats.wall_seconds * 1e3, snap.stats.energy]);
+            if self.history.len() > HISTORY {
+                self.history.pop_front();
+            }
+        }
+        self.last_step = snap.steps;
+    }
+}
+
+/// Draw the panel for `snap`; returns what the user asked for.
+pub fn show(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot) -> Vec<UiAction> {
+    let mut actions = Vec::new();
+    state.record(snap);
+    egui::ScrollArea::vertical().show(ui, |ui| {
+        pickers(ui, state, snap, &mut actions);
+        ui.separator();
+        transport(ui, state, snap, &mut actions);
+        ui.separator();
+        parameters(ui, state, snap, &mut actions);
+        ui.separator();
+        statistics(ui, state, snap);
+        ui.separator();
+        drags(ui, state, snap, &mut actions);
+    });
+    actions
+}
+
+fn pickers(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot, actions: &mut Vec<UiAction>) {
+    egui::Grid::new("pickers").num_columns(2).show(ui, |ui| {
+        let label = ui.label("Scene").on_hover_text("Built-in scene to simulate");
+        let mut scene = state.scene.clone();
+        egui::ComboBox::from_id_salt("scene")
+            .selected_text(&scene)
+            .show_ui(ui, |ui| {
+                for s in &state.scenes {
+                    ui.selectable_value(&mut scene, s.clone(), s);
+                }
+            })
+            .response
+            .labelled_by(label.id);
+        if scene != state.scene {
+            state.scene = scene.clone();
+            actions.push(UiAction::SwitchScene(scene));
+        }
+        ui.end_row();
+        let label = ui.label("Method").on_hover_text("Simulation method for this scene");
+        let mut method = snap.method.to_string();
+        egui::ComboBox::from_id_salt("method")
+            .selected_text(&method)
+            .show_ui(ui, |ui| {
+                for m in &state.methods {
+                    ui.selectable_value(&mut method, m.clone(), m);
+                }
+            })
+            .response
+            .labelled_by(label.id);
+        if method != snap.method {
+            actions.push(UiAction::SwitchMethod(method));
+        }
+        ui.end_row();
+    });
+}
+
+fn transport(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot, actions: &mut Vec<UiAction>) {
+    ui.horizontal(|ui| {
+        let paused = !matches!(snap.status, SimStatus::Running);
+        let play = ui.button(if paused { "Play" } else { "Pause" }).on_hover_text("Play or pause (Space)");
+        if play.clicked() {
+            actions.push(UiAction::SetPaused(!paused));
+        }
+        if ui.button("Step").on_hover_text("Advance one step (S)").clicked() {
+            actions.push(UiAction::StepOnce);
+        }
+        if ui.button("Reset").on_hover_text("Back to the rest state (R)").clicked() {
+            actions.push(UiAction::Reset);
+        }
+        if ui.button("Screenshot").on_hover_text("Save a screenshot (F12)").clicked() {
+            actions.push(UiAction::Screenshot);
+        }
+    });
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut state.wireframe, "Wireframe").on_hover_text("Overlay the mesh's edges (W)");
+        ui.label("Drag adds").on_hover_text("What a left-drag on the surface adds");
+        ui.radio_value(&mut state.drag_mode, DragMode::Position, "position")
+            .on_hover_text("The picked vertex follows the pointer in the view plane");
+        ui.radio_value(&mut state.drag_mode, DragMode::Orientation, "rotation")
+            .on_hover_text("The picked vertex's rotation follows the pointer (rotate gizmo)");
+    });
+    ui.horizontal(|ui| {
+        let before = state.speed;
+        ui.label("Pace").on_hover_text("Simulated time per wall-clock time");
+        ui.radio_value(&mut state.speed, Some(1.0), "real time");
+        ui.radio_value(&mut state.speed, Some(0.25), "slow x0.25");
+        ui.radio_value(&mut state.speed, None, "fast").on_hover_text("As fast as possible");
+        if state.speed != before {
+            actions.push(UiAction::SetPacing(state.speed.map_or(Pacing::AsFastAsPossible, Pacing::Scaled)));
+        }
+    });
+    if let SimStatus::Diverged(reason) = &snap.status {
+        ui.colored_label(Color32::from_rgb(220, 60, 40), format!("Diverged: {reason}"));
+        if ui.button("Reset after divergence").clicked() {
+            actions.push(UiAction::Reset);
+        }
+    }
+    if let Some(p) = &snap.progress {
+        ui.add(egui::ProgressBar::new(p.fraction).text(&p.label).show_percentage());
+    }
+    if let Some(e) = &snap.last_error {
+        ui.colored_label(Color32::from_rgb(220, 60, 40), e);
+    }
+}
+
+fn parameters(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot, actions: &mut Vec<UiAction>) {
+    ui.heading("Parameters");
+    egui::Grid::new("params").num_columns(3).striped(true).show(ui, |ui| {
+        for p in &snap.params {
+            let spec = p.spec;
+            let label = ui.label(spec.label).on_hover_text(format!("{} (`{}`)", spec.help, spec.name));
+            let text = state.edits.entry(spec.name).or_insert_with(|| format_value(p.value));
+            let edit = ui
+                .add(egui::TextEdit::singleline(text).desired_width(90.0).id_salt(spec.name))
+                .labelled_by(label.id)
+                .on_hover_text(format!("{} - range [{}, {}] {}", spec.help, spec.min, spec.max, spec.unit));
+            if edit.lost_focus() {
+                match PanelState::accept(&spec, text) {
+                    Ok(v) => {
+                        state.errors.remove(spec.name);
+                        if v != p.value {
+                            actions.push(UiAction::SetParam(spec.name.to_string(), v));
+                        }
+                    }
+                    Err(e) => {
+                        state.errors.insert(spec.name, e);
+                    }
+                }
+            } else if !edit.has_focus() && !state.errors.contains_key(spec.name) {
+                *text = format_value(p.value);
+            }
+            ui.label(spec.unit);
+            ui.end_row();
+            if let Some(e) = state.errors.get(spec.name) {
+                ui.label("");
+                ui.colored_label(Color32::from_rgb(220, 60, 40), RichText::new(e).small());
+                ui.end_row();
+            }
+        }
+    });
+}
+
+fn format_value(v: f64) -> String {
+    if v != 0.0 && (v.abs() < 1e-3 || v.abs() >= 1e5) { format!("{v:e}") } else { format!("{v}") }
+}
+
+fn statistics(ui: &mut egui::Ui, state: &PanelState, snap: &Snapshot) {
+    ui.heading("Statistics");
+    ui.label(format!(
+        "step {}   t = {:.3} s   wall {:.3} s   {:.0} fps",
+        snap.steps, snap.stats.sim_time, snap.wall_time, state.fps
+    ));
+    ui.label(format!(
+        "step time {:.3} ms   energy {:.4e} J   residual {:.2e}   iterations {}",
+        snap.stats.wall_seconds * 1e3,
+        snap.stats.energy,
+        snap.stats.residual,
+        snap.stats.iterations
+    ));
+    let series = |k: usize| -> Vec<[f64; 2]> { state.history.iter().map(|h| [h[0], h[k]]).collect() };
+    Plot::new("history").height(140.0).legend(Legend::default()).show(ui, |plot| {
+        plot.line(Line::new("step ms", series(1)));
+        plot.line(Line::new("energy J", series(2)));
+    });
+}
+
+fn drags(ui: &mut egui::Ui, state: &PanelState, snap: &Snapshot, actions: &mut Vec<UiAction>) {
+    ui.heading("Constraints");
+    if snap.drags.is_empty() {
+        let how = match state.drag_mode {
+            DragMode::Position => "Left-drag the surface to pull a vertex.",
+            DragMode::Orientation => "Left-drag the surface to twist a vertex.",
+        };
+        ui.label(how);
+    }
+    for (id, d) in &snap.drags {
+        ui.horizontal(|ui| {
+            let what = match d.kind {
+                DragKind::Position(p) => format!("vertex {} -> ({:.3}, {:.3}, {:.3})", d.vertex, p.x, p.y, p.z),
+                DragKind::Orientation(w) => format!("vertex {} rotated {:.1} deg", d.vertex, w.length().to_degrees()),
+            };
+            ui.label(what);
+            if ui.small_button("Remove").on_hover_text("Remove this constraint").clicked() {
+                actions.push(UiAction::RemoveDrag(*id));
+            }
+        });
+    }
+}
+
+impl UiAction {
+    /// The simulation-thread command this action is, for actions that are one (the viewer handles
+    /// scene and method switches, screenshots and nothing-to-send actions itself).
+    pub fn command(&self) -> Option<super::sim_thread::Command> {
+        use super::sim_thread::Command;
+        Some(match self {
+            UiAction::SetParam(name, value) => Command::SetParam(name.clone(), *value),
+            UiAction::SetPaused(p) => Command::SetPaused(*p),
+            UiAction::StepOnce => Command::StepOnce,
+            UiAction::Reset => Command::Reset,
+            UiAction::SetPacing(p) => Command::SetPacing(*p),
+            UiAction::RemoveDrag(id) => Command::RemoveDrag(*id),
+            UiAction::SwitchScene(_) | UiAction::SwitchMethod(_) | UiAction::Screenshot => return None,
+        })
+    }
+}
