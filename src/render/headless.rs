@@ -50,58 +50,75 @@ impl Offscreen {
         Self { size: (width, height), texture, view, readback }
     }
 
-    /// Copy the texture into the readback buffer, wait, and strip the row padding.
-    fn read(&self, gpu: &Gpu, bgra: bool) -> Result<RgbaImage, RenderError> {
-        let (width, height) = self.size;
-        let padded = padded_bytes_per_row(width);
-        let mut encoder =
-            gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shellwarp readback") });
-        encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture: &self.texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &self.readback,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(padded),
-                    rows_per_image: Some(height),
-                },
-            },
-            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-        );
-        gpu.queue.submit([encoder.finish()]);
-
-        let slice = self.readback.slice(..);
-        let (sender, receiver) = mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |result| {
-            // The receiver outlives the poll below; a failed send only means nobody is waiting.
-            let _ = sender.send(result);
-        });
-        gpu.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Map(e.to_string()))?;
-        receiver
-            .recv()
-            .map_err(|_| RenderError::Map("the map callback never ran".into()))?
-            .map_err(|e| RenderError::Map(e.to_string()))?;
-
-        let row_bytes = width as usize * 4;
-        let mut pixels = Vec::with_capacity(row_bytes * height as usize);
-        {
-            let data = slice.get_mapped_range().map_err(|e| RenderError::Map(e.to_string()))?;
-            for row in data.chunks(padded as usize).take(height as usize) {
-                pixels.extend_from_slice(&row[..row_bytes]);
-            }
-        }
-        self.readback.unmap();
-        if bgra {
-            pixels.chunks_exact_mut(4).for_each(|p| p.swap(0, 2));
-        }
-        RgbaImage::from_raw(width, height, pixels)
-            .ok_or_else(|| RenderError::Map("read back fewer bytes than the image needs".into()))
+    fn read(&self, gpu: &Gpu) -> Result<RgbaImage, RenderError> {
+        read_texture_with(gpu, &self.texture, &self.readback)
     }
+}
+
+/// Read an 8-bit RGBA or BGRA texture (with `COPY_SRC` usage) back into an image: a window's surface
+/// texture for screenshots, or an offscreen target.
+pub fn read_texture(gpu: &Gpu, texture: &wgpu::Texture) -> Result<RgbaImage, RenderError> {
+    let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("shellwarp readback"),
+        size: u64::from(padded_bytes_per_row(texture.width())) * u64::from(texture.height()),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    read_texture_with(gpu, texture, &readback)
+}
+
+/// Copy `texture` into `readback`, wait, and strip the row padding (and swap BGRA to RGBA).
+fn read_texture_with(gpu: &Gpu, texture: &wgpu::Texture, readback: &wgpu::Buffer) -> Result<RgbaImage, RenderError> {
+    let bgra = readback_layout(texture.format())?;
+    let (width, height) = (texture.width(), texture.height());
+    let padded = padded_bytes_per_row(width);
+    let mut encoder =
+        gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shellwarp readback") });
+    encoder.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::TexelCopyBufferInfo {
+            buffer: readback,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(height),
+            },
+        },
+        wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+    );
+    gpu.queue.submit([encoder.finish()]);
+
+    let slice = readback.slice(..);
+    let (sender, receiver) = mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |result| {
+        // The receiver outlives the poll below; a failed send only means nobody is waiting.
+        let _ = sender.send(result);
+    });
+    gpu.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Map(e.to_string()))?;
+    receiver
+        .recv()
+        .map_err(|_| RenderError::Map("the map callback never ran".into()))?
+        .map_err(|e| RenderError::Map(e.to_string()))?;
+
+    let row_bytes = width as usize * 4;
+    let mut pixels = Vec::with_capacity(row_bytes * height as usize);
+    {
+        let data = slice.get_mapped_range().map_err(|e| RenderError::Map(e.to_string()))?;
+        for row in data.chunks(padded as usize).take(height as usize) {
+            pixels.extend_from_slice(&row[..row_bytes]);
+        }
+    }
+    readback.unmap();
+    if bgra {
+        pixels.chunks_exact_mut(4).for_each(|p| p.swap(0, 2));
+    }
+    RgbaImage::from_raw(width, height, pixels)
+        .ok_or_else(|| RenderError::Map("read back fewer bytes than the image needs".into()))
 }
 
 /// Whether `format` reads back as 4 bytes per pixel, and if so whether red and blue are swapped.
@@ -128,13 +145,13 @@ pub fn render_to_image(
     width: u32,
     height: u32,
 ) -> Result<RgbaImage, RenderError> {
-    let bgra = readback_layout(renderer.color_format())?;
+    readback_layout(renderer.color_format())?;
     if width == 0 || height == 0 {
         return Err(RenderError::BadSize { width, height, reason: "width and height must be positive".into() });
     }
     let offscreen = Offscreen::new(gpu, renderer.color_format(), (width, height));
     renderer.render(gpu, frame, &offscreen.view, (width, height))?;
-    offscreen.read(gpu, bgra)
+    offscreen.read(gpu)
 }
 
 /// A GPU, a renderer and an offscreen target bundled for repeated renders of one size.
@@ -185,13 +202,13 @@ impl Headless {
 
     /// Render `frame` and read it back.
     pub fn render(&mut self, frame: &Frame) -> Result<RgbaImage, RenderError> {
-        let bgra = readback_layout(self.renderer.color_format())?;
+        readback_layout(self.renderer.color_format())?;
         let offscreen = match self.offscreen.take() {
             Some(o) if o.size == self.size => o,
             _ => Offscreen::new(&self.gpu, self.renderer.color_format(), self.size),
         };
         self.renderer.render(&self.gpu, frame, &offscreen.view, self.size)?;
-        let image = offscreen.read(&self.gpu, bgra);
+        let image = offscreen.read(&self.gpu);
         self.offscreen = Some(offscreen);
         image
     }

@@ -34,5 +34,7 @@ pub use compare::{DEFAULT_PIXEL_THRESHOLD, ImageDiff, compare_images, compare_im
 pub use error::RenderError;
 pub use frame::{Camera, DEFAULT_BACKGROUND, Frame, Line, Marker, MeshDraw, smooth_normals};
 pub use gpu::Gpu;
-pub use headless::{HEADLESS_FORMAT, Headless, load_png, padded_bytes_per_row, render_to_image, save_png};
+pub use headless::{
+    HEADLESS_FORMAT, Headless, load_png, padded_bytes_per_row, read_texture, render_to_image, save_png,
+};
 pub use renderer::{Renderer, linear_to_srgb};
