@@ -171,7 +171,7 @@ impl Default for Frame {
 }
 
 /// The default background: a light grey-blue (linear RGBA).
-pub const DEFAULT_BACKGROUND: [f32; 4] = [0.62, 0.68, 0.76, 1.0];
+pub const DEFAULT_BACKGROUND: [f32; 4] = [0.55, 0.63, 0.76, 1.0];
 
 impl Frame {
     /// An empty frame seen from `camera` on the [`DEFAULT_BACKGROUND`].

@@ -96,7 +96,8 @@ impl Geometry {
                 n[axis] = sign;
                 // u x v must equal n for counter-clockwise winding seen from outside.
                 let (mut u, mut v) = ([0.0f32; 3], [0.0f32; 3]);
-                let (iu, iv) = if sign > 0.0 { ((axis + 1) % 3, (axis + 2) % 3) } else { ((axis + 2) % 3, (axis + 1) % 3) };
+                let (iu, iv) =
+                    if sign > 0.0 { ((axis + 1) % 3, (axis + 2) % 3) } else { ((axis + 2) % 3, (axis + 1) % 3) };
                 u[iu] = 1.0;
                 v[iv] = 1.0;
                 for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
@@ -171,7 +172,12 @@ mod tests {
     #[test]
     fn bad_meshes_are_refused_with_their_index() {
         let mut frame = Frame::default();
-        let ok = MeshDraw::from_positions(vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 2]], [1.0; 4], [1.0; 4]);
+        let ok = MeshDraw::from_positions(
+            vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            vec![[0, 1, 2]],
+            [1.0; 4],
+            [1.0; 4],
+        );
         let mut bad = ok.clone();
         bad.triangles.push([0, 1, 3]);
         frame.meshes = vec![ok.clone(), bad];
@@ -185,7 +191,12 @@ mod tests {
 
     #[test]
     fn second_mesh_indices_are_offset_and_wireframe_is_biased() {
-        let tri = MeshDraw::from_positions(vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 2]], [1.0; 4], [1.0; 4]);
+        let tri = MeshDraw::from_positions(
+            vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            vec![[0, 1, 2]],
+            [1.0; 4],
+            [1.0; 4],
+        );
         let mut frame = Frame::default();
         frame.meshes = vec![tri.clone(), tri.with_wireframe([0.0, 0.0, 0.0, 1.0])];
         frame.line([0.0; 3], [1.0; 3], [1.0; 4]);

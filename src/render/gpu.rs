@@ -83,8 +83,5 @@ fn pick_adapter(instance: &wgpu::Instance, surface: Option<&wgpu::Surface<'_>>) 
         }
     }
     let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
-    adapters
-        .into_iter()
-        .find(|a| surface.is_none_or(|s| a.is_surface_supported(s)))
-        .ok_or(RenderError::NoAdapter)
+    adapters.into_iter().find(|a| surface.is_none_or(|s| a.is_surface_supported(s))).ok_or(RenderError::NoAdapter)
 }
