@@ -243,7 +243,7 @@ mod tests {
     fn normals_are_area_weighted_and_robust() {
         // Vertex 0 is shared by a big triangle facing +Z and a small one facing +X.
         let positions = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, -0.1]];
-        let triangles = [[0, 1, 2], [0, 3, 4], [0, 1, 99]];
+        let triangles = [[0, 1, 2], [0, 4, 3], [0, 1, 99]];
         let n = smooth_normals(&positions, &triangles);
         let n0 = Vec3::from(n[0]);
         assert!(n0.z > 0.9 && n0.x > 0.0, "{n0}");
