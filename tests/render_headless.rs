@@ -211,3 +211,47 @@ fn showcase_matches_reference_png() {
         panic!("render differs from {}: {diff}; actual image: {saved:?}", reference_path.display());
     }
 }
+
+#[test]
+fn unorm_target_matches_srgb_target_and_errors_are_returned() {
+    use shellwarp::render::{Gpu, RenderError, Renderer, compare_images, render_to_image};
+    let gpu = Gpu::new_headless().unwrap_or_else(|e| panic!("this test needs a wgpu adapter: {e}"));
+    eprintln!("adapter: {}", gpu.adapter_name());
+    let frame = sphere_frame();
+
+    // The shader encodes sRGB itself for a non-sRGB target: both pictures must agree, except at edges
+    // (MSAA resolve and line blending then happen on encoded rather than linear values).
+    let mut srgb = Renderer::new(&gpu, wgpu::TextureFormat::Rgba8UnormSrgb, 4).unwrap();
+    let mut unorm = Renderer::new(&gpu, wgpu::TextureFormat::Rgba8Unorm, 4).unwrap();
+    assert!([1, 4].contains(&srgb.sample_count()));
+    let a = render_to_image(&gpu, &mut srgb, &frame, WIDTH, HEIGHT).unwrap();
+    let b = render_to_image(&gpu, &mut unorm, &frame, WIDTH, HEIGHT).unwrap();
+    let diff = compare_images(&a, &b).unwrap();
+    assert!(diff.mean_abs < 0.005 && diff.frac_over_threshold < 0.01, "{diff}");
+
+    // Runtime problems come back as errors, not panics.
+    let err = render_to_image(&gpu, &mut srgb, &frame, 0, 10).unwrap_err();
+    assert!(matches!(err, RenderError::BadSize { .. }), "{err}");
+    let mut broken = frame.clone();
+    broken.meshes[0].triangles.push([0, 1, 1_000_000]);
+    let err = render_to_image(&gpu, &mut srgb, &broken, WIDTH, HEIGHT).unwrap_err();
+    assert!(matches!(err, RenderError::BadMesh { mesh: 0, .. }), "{err}");
+    // A target view whose format differs from the renderer's is a wgpu validation error.
+    let err = render_to_image(&gpu, &mut srgb, &frame, WIDTH, HEIGHT).and_then(|_| {
+        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: None,
+            size: wgpu::Extent3d { width: 8, height: 8, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Bgra8Unorm,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        srgb.render(&gpu, &frame, &texture.create_view(&Default::default()), (8, 8))
+    });
+    assert!(matches!(err, Err(RenderError::Gpu { .. })), "{err:?}");
+    // The renderer still works afterwards.
+    let again = render_to_image(&gpu, &mut srgb, &frame, WIDTH, HEIGHT).unwrap();
+    assert!(compare_images(&a, &again).unwrap().mean_abs < 1e-3);
+}
