@@ -171,7 +171,7 @@ impl Default for Frame {
 }
 
 /// The default background: a light grey-blue (linear RGBA).
-pub const DEFAULT_BACKGROUND: [f32; 4] = [0.62, 0.68, 0.76, 1.0];
+pub const DEFAULT_BACKGROUND: [f32; 4] = [0.55, 0.63, 0.76, 1.0];
 
 impl Frame {
     /// An empty frame seen from `camera` on the [`DEFAULT_BACKGROUND`].
@@ -243,7 +243,7 @@ mod tests {
     fn normals_are_area_weighted_and_robust() {
         // Vertex 0 is shared by a big triangle facing +Z and a small one facing +X.
         let positions = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, -0.1]];
-        let triangles = [[0, 1, 2], [0, 3, 4], [0, 1, 99]];
+        let triangles = [[0, 1, 2], [0, 4, 3], [0, 1, 99]];
         let n = smooth_normals(&positions, &triangles);
         let n0 = Vec3::from(n[0]);
         assert!(n0.z > 0.9 && n0.x > 0.0, "{n0}");

@@ -197,8 +197,8 @@ mod tests {
             [1.0; 4],
             [1.0; 4],
         );
-        let mut frame = Frame::default();
-        frame.meshes = vec![tri.clone(), tri.with_wireframe([0.0, 0.0, 0.0, 1.0])];
+        let mut frame =
+            Frame { meshes: vec![tri.clone(), tri.with_wireframe([0.0, 0.0, 0.0, 1.0])], ..Default::default() };
         frame.line([0.0; 3], [1.0; 3], [1.0; 4]);
         let mut g = Geometry::default();
         g.build(&frame).unwrap();

@@ -35,18 +35,18 @@ impl Globals {
     /// so every view of the surface is readable.
     pub fn new(camera: &Camera, aspect: f32, encode_srgb: bool) -> Self {
         let (right, up, back) = (camera.right(), camera.true_up(), -camera.forward());
-        let key = (0.55 * up - 0.5 * right + 0.65 * back).normalize_or(back);
-        let fill = (-0.3 * up + 0.7 * right + 0.6 * back).normalize_or(back);
+        let key = (0.6 * up - 0.6 * right + 0.5 * back).normalize_or(back);
+        let fill = (-0.25 * up + 0.75 * right + 0.6 * back).normalize_or(back);
         let dir = |d: Vec3, w: f32| [d.x, d.y, d.z, w];
         Self {
             view_proj: camera.view_proj(aspect).to_cols_array_2d(),
             eye: camera.eye.extend(1.0).to_array(),
-            key_dir: dir(key, 0.85),
+            key_dir: dir(key, 0.8),
             key_color: [1.0, 0.95, 0.88, 1.0],
-            fill_dir: dir(fill, 0.32),
+            fill_dir: dir(fill, 0.22),
             fill_color: [0.80, 0.88, 1.0, 1.0],
-            ambient: [0.20, 0.21, 0.24, 0.35],
-            params: [if encode_srgb { 1.0 } else { 0.0 }, 0.22, 48.0, 0.0],
+            ambient: [0.08, 0.085, 0.10, 0.5],
+            params: [if encode_srgb { 1.0 } else { 0.0 }, 0.3, 40.0, 0.0],
         }
     }
 }

@@ -123,7 +123,8 @@ impl Renderer {
     }
 
     /// Record the drawing of `frame` into `encoder` without submitting, so callers can add more passes
-    /// (e.g. a GUI) to the same command buffer. Buffer uploads go through `gpu.queue` and happen first.
+    /// (e.g. a GUI) to the same command buffer. Buffer uploads go through `gpu.queue` and happen first,
+    /// so call this at most once per submission (a second call would overwrite the first's buffers).
     pub fn encode(
         &mut self,
         gpu: &Gpu,
