@@ -1,5 +1,7 @@
 //! The interactive viewer: simulation thread and hand-off (UI-independent), window, panel, picking.
 
+pub mod orbit;
 pub mod panel;
 pub mod scene_view;
 pub mod sim_thread;
+pub mod viewer;

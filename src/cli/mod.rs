@@ -3,6 +3,7 @@
 mod render;
 mod scenes;
 mod sim;
+mod view;
 
 use std::process::ExitCode;
 
@@ -12,12 +13,15 @@ use clap::{Args, Parser, Subcommand};
 #[derive(Debug, Parser)]
 #[command(name = "shellwarp", version, about)]
 pub struct Cli {
+    /// What to do; without one, the viewer opens on the default scene.
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
 }
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Open the interactive viewer (the default).
+    View(view::ViewArgs),
     /// List the built-in scenes and the registered methods.
     Scenes,
     /// Run a scene for some frames and save a picture (PNG), without a window.
@@ -54,7 +58,8 @@ impl SceneArgs {
 
 /// Run the parsed command.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
-    match cli.command {
+    match cli.command.unwrap_or_else(|| Command::View(view::ViewArgs::default())) {
+        Command::View(args) => view::run(&args),
         Command::Scenes => scenes::run(),
         Command::Render(args) => render::run(&args),
         Command::Sim(args) => sim::run(&args),

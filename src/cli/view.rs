@@ -1,0 +1,76 @@
+//! `shellwarp view` (and plain `shellwarp`): the interactive viewer.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use glam::DVec3;
+use shellwarp::app::viewer::{self, ViewerOptions};
+
+use super::render::parse_size;
+
+/// Arguments of `shellwarp view`.
+#[derive(Debug, Clone, clap::Parser)]
+#[command(name = "view")]
+pub struct ViewArgs {
+    /// Built-in scene name or path to a scene TOML file.
+    #[arg(long, short = 's', default_value = "cantilever")]
+    scene: String,
+    /// Method to run instead of the scene's own.
+    #[arg(long, short = 'm')]
+    method: Option<String>,
+    /// Override a scene value, e.g. `--set material.k_bend=0.02` (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Window size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1280x760", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Start paused.
+    #[arg(long)]
+    paused: bool,
+    /// Render this many frames in the window, save a screenshot to --out, and exit.
+    #[arg(long, value_name = "N")]
+    screenshot_after: Option<u64>,
+    /// Screenshot file (F12, and --screenshot-after).
+    #[arg(long, default_value = "shellwarp-screenshot.png")]
+    out: PathBuf,
+    /// Scripted drag, sent through the same command channel as the mouse: VERTEX:X,Y,Z.
+    #[arg(long, value_name = "VERTEX:X,Y,Z", value_parser = parse_drag)]
+    drag: Option<(usize, DVec3)>,
+}
+
+impl Default for ViewArgs {
+    fn default() -> Self {
+        <Self as clap::Parser>::parse_from(["view"])
+    }
+}
+
+/// Parse `VERTEX:X,Y,Z`.
+fn parse_drag(s: &str) -> Result<(usize, DVec3), String> {
+    let bad = || format!("`{s}`: expected VERTEX:X,Y,Z, e.g. 204:0.5,0.2,0.0");
+    let (v, xyz) = s.split_once(':').ok_or_else(bad)?;
+    let v = v.trim().parse().map_err(|_| bad())?;
+    let c: Vec<f64> = xyz.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| bad())?;
+    match c[..] {
+        [x, y, z] if c.iter().all(|x| x.is_finite()) => Ok((v, DVec3::new(x, y, z))),
+        _ => Err(bad()),
+    }
+}
+
+/// Open the viewer.
+pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
+    let mut overrides = args.set.clone();
+    if let Some(m) = &args.method {
+        shellwarp::solver::registry::find(m)?;
+        overrides.push(format!("solver.method={m}"));
+    }
+    viewer::run(ViewerOptions {
+        scene: args.scene.clone(),
+        overrides,
+        size: args.size,
+        paused: args.paused,
+        screenshot_after: args.screenshot_after,
+        out: args.out.clone(),
+        drag: args.drag,
+    })?;
+    Ok(ExitCode::SUCCESS)
+}
