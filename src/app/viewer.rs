@@ -38,6 +38,19 @@ pub struct ViewerOptions {
     pub out: PathBuf,
     /// A scripted drag sent through the same command channel as the mouse: vertex and target.
     pub drag: Option<(usize, DVec3)>,
+    /// With `screenshot_after`: also write the simulation state shown in the screenshot as JSON.
+    pub state_out: Option<PathBuf>,
+}
+
+/// The simulation state written by `state_out`: what the screenshot shows, as numbers.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct ViewerState {
+    /// Steps taken.
+    pub steps: u64,
+    /// Vertex positions.
+    pub positions: Vec<[f64; 3]>,
+    /// Position-drag targets by vertex.
+    pub position_drags: Vec<(usize, [f64; 3])>,
 }
 
 /// Open the window and run until it is closed (or the unattended screenshot is taken).
@@ -439,6 +452,22 @@ impl Running {
         if self.screenshot || unattended {
             self.screenshot = false;
             self.save_screenshot(&frame_texture.texture, &options.out)?;
+        }
+        if let (true, Some(path)) = (unattended, &options.state_out) {
+            let state = ViewerState {
+                steps: snapshot.steps,
+                positions: snapshot.positions.iter().map(|p| p.to_array()).collect(),
+                position_drags: snapshot
+                    .drags
+                    .iter()
+                    .filter_map(|(_, d)| match d.kind {
+                        DragKind::Position(t) => Some((d.vertex, t.to_array())),
+                        DragKind::Orientation(_) => None,
+                    })
+                    .collect(),
+            };
+            std::fs::write(path, serde_json::to_string(&state)?)
+                .with_context(|| format!("writing {}", path.display()))?;
         }
         self.gpu.queue.present(frame_texture);
         self.window.request_redraw();

@@ -36,6 +36,9 @@ pub struct ViewArgs {
     /// Scripted drag, sent through the same command channel as the mouse: VERTEX:X,Y,Z.
     #[arg(long, value_name = "VERTEX:X,Y,Z", value_parser = parse_drag)]
     drag: Option<(usize, DVec3)>,
+    /// With --screenshot-after: also write the simulation state in the screenshot as JSON.
+    #[arg(long, value_name = "FILE")]
+    state_out: Option<PathBuf>,
 }
 
 impl Default for ViewArgs {
@@ -71,6 +74,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
         screenshot_after: args.screenshot_after,
         out: args.out.clone(),
         drag: args.drag,
+        state_out: args.state_out.clone(),
     })?;
     Ok(ExitCode::SUCCESS)
 }
