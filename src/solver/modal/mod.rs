@@ -4,3 +4,6 @@ pub mod basis;
 pub mod dynamics;
 pub mod rotation;
 pub mod warp;
+pub mod compute;
+pub mod cache;
+pub mod method;

@@ -1,0 +1,270 @@
+//! `lma` and `mwts` behind the [`Solver`] trait: one implementation, the flag `warp` tells them apart.
+//!
+//! Stiffness, density and mode-count changes recompute the modes on a background thread; the step
+//! loop keeps running on the old basis meanwhile and swaps the new one in when it is ready, carrying
+//! the state over by projection. Analyses are cached on disk ([`super::cache`]).
+
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::mpsc::{Receiver, TryRecvError};
+use std::sync::{Arc, mpsc};
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::compute::{ModalAnalysis, ModalProblem, analyse};
+use super::dynamics::{ModalDynamics, ModalParams};
+use super::cache;
+use crate::energy::ShellStiffness;
+use crate::mesh::TriMesh;
+use crate::scene::Setup;
+use crate::solver::registry::Method;
+use crate::solver::{DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
+
+/// Registry entry: linear modal analysis.
+pub const LMA: Method = Method {
+    name: "lma",
+    summary: "linear modal analysis: x = X + Φq, fast, but large rotations inflate the shell",
+    build: |setup| Ok(Box::new(ModalSolver::new(setup, false)?)),
+};
+
+/// Registry entry: modal warping for thin shells.
+pub const MWTS: Method = Method {
+    name: "mwts",
+    summary: "modal warping for thin shells: modal rotations warp the linear modes (1/30 s steps)",
+    build: |setup| Ok(Box::new(ModalSolver::new(setup, true)?)),
+};
+
+const fn spec(name: &'static str, label: &'static str, unit: &'static str, help: &'static str, min: f64, max: f64) -> ParamSpec {
+    ParamSpec { name, label, unit, help, min, max, log_scale: false, integer: false }
+}
+
+const PARAMS: [ParamSpec; 10] = [
+    ParamSpec { log_scale: true, ..spec("k_area", "k_A (area)", "N/m", "Area (stretch) stiffness of the shell.", 0.0, 1e9) },
+    ParamSpec { log_scale: true, ..spec("k_length", "k_L (length)", "N/m", "Edge-length (shear) stiffness.", 0.0, 1e9) },
+    ParamSpec { log_scale: true, ..spec("k_bend", "k_B (bending)", "N·m", "Bending (hinge) stiffness.", 1e-9, 1e6) },
+    ParamSpec { log_scale: true, ..spec("density", "density", "kg/m²", "Surface density (lumped mass).", 1e-6, 1e4) },
+    spec("gravity", "gravity y", "m/s²", "Vertical gravity acceleration (negative is down).", -1000.0, 1000.0),
+    spec("rayleigh_alpha", "Rayleigh α", "1/s", "Mass-proportional damping C = αM + βK.", 0.0, 1000.0),
+    spec("rayleigh_beta", "Rayleigh β", "s", "Stiffness-proportional damping C = αM + βK.", 0.0, 10.0),
+    ParamSpec { integer: true, ..spec("modes", "modes", "", "Number of vibration modes (recomputed in the background).", 1.0, 256.0) },
+    spec("step", "time step", "s", "Fixed step of the modal integrator.", 1e-5, 0.1),
+    ParamSpec { log_scale: true, ..spec("constraint_damping", "drag damping", "", "Relative Tikhonov damping of over-determined drags.", 1e-12, 1.0) },
+];
+
+/// A basis being recomputed in the background.
+struct Pending {
+    receiver: Receiver<Result<ModalAnalysis, SolverError>>,
+    progress: Arc<AtomicU32>,
+}
+
+/// The modal solver (LMA or MWTS).
+pub struct ModalSolver {
+    method: &'static str,
+    mesh: Arc<TriMesh>,
+    anchors: Arc<Vec<usize>>,
+    loads: Vec<DVec3>,
+    area: Vec<f64>,
+    stiffness: ShellStiffness,
+    density: f64,
+    gravity: DVec3,
+    modes: usize,
+    params: ModalParams,
+    dynamics: ModalDynamics,
+    analysis: ModalAnalysis,
+    drags: DragSet,
+    steps: u64,
+    pending: Option<Pending>,
+}
+
+impl ModalSolver {
+    /// Build from a scene (computing or loading the modes synchronously).
+    pub fn new(setup: &Setup, warp: bool) -> Result<Self, SolverError> {
+        let m = &setup.scene.material;
+        let s = &setup.scene.solver;
+        let stiffness = ShellStiffness { k_area: m.k_area, k_length: m.k_length, k_bend: m.k_bend };
+        let mesh = Arc::new(setup.mesh.clone());
+        let anchors = Arc::new(setup.anchors.clone());
+        let area = setup.mesh.vertex_areas();
+        let modes = s.modes;
+        let analysis = modes_for(&mesh, &anchors, &area, m.density, stiffness, modes, &|_| {})?;
+        let params = ModalParams {
+            step: PARAMS[8].check(s.step.unwrap_or(1.0 / 30.0))?,
+            alpha: s.rayleigh_alpha,
+            beta: s.rayleigh_beta,
+            constraint_damping: 1e-6,
+        };
+        let mut solver = Self {
+            method: if warp { MWTS.name } else { LMA.name },
+            dynamics: ModalDynamics::new(analysis.basis.clone(), mesh.positions().to_vec(), Vec::new(), warp),
+            mesh,
+            anchors,
+            loads: setup.loads.clone(),
+            area,
+            stiffness,
+            density: m.density,
+            gravity: setup.gravity(),
+            modes,
+            params,
+            analysis,
+            drags: DragSet::new(setup.mesh.vertex_count(), true),
+            steps: 0,
+            pending: None,
+        };
+        solver.update_forces();
+        Ok(solver)
+    }
+
+    /// The current modal analysis (eigenvalues, residuals, timings).
+    pub fn analysis(&self) -> &ModalAnalysis {
+        &self.analysis
+    }
+
+    fn masses(&self) -> Vec<f64> {
+        self.area.iter().map(|a| a * self.density).collect()
+    }
+
+    fn update_forces(&mut self) {
+        let masses = self.masses();
+        let forces = masses.iter().zip(&self.loads).map(|(m, l)| self.gravity * *m + *l).collect();
+        self.dynamics.set_forces(forces);
+    }
+
+    /// Start recomputing the modes for the current parameters on a background thread.
+    fn recompute(&mut self) {
+        let (tx, rx) = mpsc::channel();
+        let progress = Arc::new(AtomicU32::new(0));
+        let (mesh, anchors, area) = (self.mesh.clone(), self.anchors.clone(), self.area.clone());
+        let (density, stiffness, modes, p) = (self.density, self.stiffness, self.modes, progress.clone());
+        std::thread::spawn(move || {
+            let report = move |f: f32| p.store(f.to_bits(), Ordering::Relaxed);
+            let _ = tx.send(modes_for(&mesh, &anchors, &area, density, stiffness, modes, &report));
+        });
+        self.pending = Some(Pending { receiver: rx, progress });
+    }
+
+    /// Swap in a finished background basis, if any.
+    fn poll_pending(&mut self) -> Result<(), SolverError> {
+        let Some(p) = &self.pending else { return Ok(()) };
+        match p.receiver.try_recv() {
+            Ok(result) => {
+                self.pending = None;
+                let analysis = result?;
+                let masses = self.masses();
+                self.dynamics.replace_basis(analysis.basis.clone(), &masses);
+                self.analysis = analysis;
+                Ok(())
+            }
+            Err(TryRecvError::Empty) => Ok(()),
+            Err(TryRecvError::Disconnected) => {
+                self.pending = None;
+                Err(SolverError::Numerical("the background modal analysis stopped".into()))
+            }
+        }
+    }
+}
+
+/// Cached or freshly computed modes.
+fn modes_for(
+    mesh: &TriMesh,
+    anchors: &[usize],
+    area: &[f64],
+    density: f64,
+    stiffness: ShellStiffness,
+    modes: usize,
+    progress: &dyn Fn(f32),
+) -> Result<ModalAnalysis, SolverError> {
+    let masses: Vec<f64> = area.iter().map(|a| a * density).collect();
+    let problem = ModalProblem { mesh, anchors, masses: &masses, stiffness, modes };
+    if let Some(a) = cache::load(&problem) {
+        return Ok(a);
+    }
+    let a = analyse(&problem, progress)?;
+    cache::store(&problem, &a);
+    Ok(a)
+}
+
+impl Solver for ModalSolver {
+    fn method(&self) -> &'static str {
+        self.method
+    }
+
+    fn time_step(&self) -> f64 {
+        self.params.step
+    }
+
+    fn step(&mut self) -> Result<StepStats, SolverError> {
+        let start = Instant::now();
+        self.poll_pending()?;
+        self.dynamics.step(&self.params, &self.drags);
+        self.steps += 1;
+        let time = self.steps as f64 * self.params.step;
+        let energy = self.dynamics.energy();
+        let limit = 1e12 * (1.0 + self.analysis.basis.eigenvalues.last().copied().unwrap_or(1.0));
+        check_finite(self.steps, time, self.dynamics.positions(), energy, limit)?;
+        Ok(StepStats { wall_seconds: start.elapsed().as_secs_f64(), sim_time: time, energy, residual: 0.0, iterations: 0 })
+    }
+
+    fn positions(&self) -> &[DVec3] {
+        self.dynamics.positions()
+    }
+
+    fn reset(&mut self) {
+        self.dynamics.reset();
+        self.steps = 0;
+    }
+
+    fn params(&self) -> Vec<ParamValue> {
+        let values = [
+            self.stiffness.k_area,
+            self.stiffness.k_length,
+            self.stiffness.k_bend,
+            self.density,
+            self.gravity.y,
+            self.params.alpha,
+            self.params.beta,
+            self.modes as f64,
+            self.params.step,
+            self.params.constraint_damping,
+        ];
+        PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect()
+    }
+
+    fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
+        let value = ParamSpec::find(self.method, &PARAMS, name)?.check(value)?;
+        let needs_modes = matches!(name, "k_area" | "k_length" | "k_bend" | "density" | "modes");
+        match name {
+            "k_area" => self.stiffness.k_area = value,
+            "k_length" => self.stiffness.k_length = value,
+            "k_bend" => self.stiffness.k_bend = value,
+            "density" => self.density = value,
+            "modes" => self.modes = value as usize,
+            "gravity" => self.gravity.y = value,
+            "rayleigh_alpha" => self.params.alpha = value,
+            "rayleigh_beta" => self.params.beta = value,
+            "step" => self.params.step = value,
+            _ => self.params.constraint_damping = value,
+        }
+        if matches!(name, "density" | "gravity") {
+            self.update_forces();
+        }
+        if needs_modes {
+            self.recompute();
+        }
+        Ok(())
+    }
+
+    fn drags(&self) -> &DragSet {
+        &self.drags
+    }
+
+    fn drags_mut(&mut self) -> &mut DragSet {
+        &mut self.drags
+    }
+
+    fn progress(&self) -> Option<Progress> {
+        self.pending.as_ref().map(|p| Progress {
+            label: format!("computing {} modes", self.modes),
+            fraction: f32::from_bits(p.progress.load(Ordering::Relaxed)),
+        })
+    }
+}
