@@ -49,7 +49,8 @@ pub fn parse(text: &str, origin: &Origin, overrides: &[String]) -> Result<Scene,
     let scene: Scene = if overrides.is_empty() {
         toml::from_str(text).map_err(|e| overrides::parse_error(&origin.label, text, &e))?
     } else {
-        let mut table: toml::Table = toml::from_str(text).map_err(|e| overrides::parse_error(&origin.label, text, &e))?;
+        let mut table: toml::Table =
+            toml::from_str(text).map_err(|e| overrides::parse_error(&origin.label, text, &e))?;
         for arg in overrides {
             overrides::apply(&mut table, arg)?;
         }

@@ -1,0 +1,170 @@
+//! Membrane terms of the discrete shell, per element: value, gradient and Hessian.
+//!
+//! - Edge length: `E = (|e| − L)²/L = (1 − |e|/L)² L` for `e = x₁ − x₀` and rest length `L`.
+//! - Triangle area: `E = (A − Ā)²/Ā = (1 − A/Ā)² Ā` for current area `A` and rest area `Ā`.
+//!
+//! Both are unweighted (the stiffness multiplies them in [`super::shell`]). Hessians are returned
+//! as row-major dense blocks: `h[3p + i][3q + j] = ∂²E/∂x_{p,i}∂x_{q,j}`.
+
+use glam::{DMat3, DVec3};
+
+use super::hinge::{cross_matrix, outer};
+
+/// The edge term's value, gradient `[∂E/∂x₀, ∂E/∂x₁]` and Hessian (6 × 6).
+///
+/// Compressed edges (`|e| < L`) have a negative transverse stiffness `2(1 − L/|e|)/L`; with
+/// `project` it is clamped to zero, which is the exact PSD projection of this element (its other
+/// eigenvalue, along the edge, is `4/L > 0`).
+pub fn edge(x0: DVec3, x1: DVec3, rest: f64, project: bool) -> (f64, [DVec3; 2], [[f64; 6]; 6]) {
+    let e = x1 - x0;
+    let l = e.length();
+    let u = e / l;
+    let r = l - rest;
+    let value = r * r / rest;
+    let g = u * (2.0 * r / rest);
+    let mut transverse = 2.0 * r / (l * rest);
+    if project {
+        transverse = transverse.max(0.0);
+    }
+    let k = outer(u, u) * (2.0 / rest - transverse) + DMat3::IDENTITY * transverse;
+    let mut h = [[0.0; 6]; 6];
+    for (p, q, s) in [(0, 0, 1.0), (0, 1, -1.0), (1, 0, -1.0), (1, 1, 1.0)] {
+        put(&mut h, p, q, k * s);
+    }
+    (value, [-g, g], h)
+}
+
+/// The area of triangle `(p, q, r)` and its gradient.
+pub fn area_gradient(x: &[DVec3; 3]) -> (f64, [DVec3; 3]) {
+    let [p, q, r] = *x;
+    let n = (q - p).cross(r - p);
+    let len = n.length();
+    let u = n / len;
+    // ∇_p A = ½ [r − q]×ᵀ n̂ = ½ n̂ × (r − q), and cyclically.
+    (0.5 * len, [u.cross(r - q) * 0.5, u.cross(p - r) * 0.5, u.cross(q - p) * 0.5])
+}
+
+/// The triangle term's value, gradient and Hessian (9 × 9), for rest area `rest`.
+pub fn triangle(x: &[DVec3; 3], rest: f64) -> (f64, [DVec3; 3], [[f64; 9]; 9]) {
+    let [p, q, r] = *x;
+    let n = (q - p).cross(r - p);
+    let len = n.length();
+    let u = n / len;
+    let area = 0.5 * len;
+    let ga = [u.cross(r - q) * 0.5, u.cross(p - r) * 0.5, u.cross(q - p) * 0.5];
+    let diff = area - rest;
+    let value = diff * diff / rest;
+    let grad = ga.map(|g| g * (2.0 * diff / rest));
+    // ∇²A = (1/(2|N|)) Jᵀ(I − n̂n̂ᵀ)J + ½ Σᵢ n̂ᵢ ∇²Nᵢ, with J_k = ∂N/∂x_k.
+    let jac = [cross_matrix(r - q), cross_matrix(p - r), cross_matrix(q - p)];
+    let proj = (DMat3::IDENTITY - outer(u, u)) * (0.5 / len);
+    let un = cross_matrix(u) * 0.5;
+    // Second term: block (k, l) = ∂(½ n̂ × (opposite edge of k))/∂x_l with n̂ fixed.
+    let second = |k: usize, l: usize| match (l + 3 - k) % 3 {
+        0 => DMat3::ZERO,
+        1 => -un,
+        _ => un,
+    };
+    let mut h = [[0.0; 9]; 9];
+    for k in 0..3 {
+        for l in 0..3 {
+            let hess_a = jac[k].transpose() * proj * jac[l] + second(k, l);
+            let block = (outer(ga[k], ga[l]) + hess_a * diff) * (2.0 / rest);
+            put(&mut h, k, l, block);
+        }
+    }
+    (value, grad, h)
+}
+
+/// Write the 3 × 3 block `m` at block position `(p, q)` of a row-major dense matrix.
+pub(crate) fn put<const N: usize>(h: &mut [[f64; N]; N], p: usize, q: usize, m: DMat3) {
+    for j in 0..3 {
+        let c = m.col(j);
+        for i in 0..3 {
+            h[3 * p + i][3 * q + j] = c[i];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rng(seed: &mut u64) -> f64 {
+        *seed ^= *seed << 13;
+        *seed ^= *seed >> 7;
+        *seed ^= *seed << 17;
+        (*seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+
+    /// Relative max-norm error of FD gradient (from values) and FD Hessian (from gradients).
+    fn fd_check<const V: usize, const N: usize>(
+        x: [DVec3; V],
+        f: impl Fn(&[DVec3; V]) -> (f64, [DVec3; V], [[f64; N]; N]),
+    ) -> (f64, f64) {
+        let h = 1e-6;
+        let (_, g, hess) = f(&x);
+        let (mut ge, mut gr, mut he, mut hr) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for p in 0..V {
+            for i in 0..3 {
+                let (mut xp, mut xm) = (x, x);
+                xp[p][i] += h;
+                xm[p][i] -= h;
+                let (vp, gp, _) = f(&xp);
+                let (vm, gm, _) = f(&xm);
+                ge = ge.max(((vp - vm) / (2.0 * h) - g[p][i]).abs());
+                gr = gr.max(g[p][i].abs());
+                for q in 0..V {
+                    for j in 0..3 {
+                        let fd = (gp[q][j] - gm[q][j]) / (2.0 * h);
+                        he = he.max((fd - hess[3 * q + j][3 * p + i]).abs());
+                        hr = hr.max(hess[3 * q + j][3 * p + i].abs());
+                    }
+                }
+            }
+        }
+        (ge / gr, he / hr)
+    }
+
+    #[test]
+    fn edge_derivatives_match_finite_differences() {
+        let mut s = 7u64;
+        for _ in 0..20 {
+            let x = [DVec3::new(rng(&mut s), rng(&mut s), rng(&mut s)), DVec3::new(rng(&mut s), 2.0, rng(&mut s))];
+            let rest = 1.5 + rng(&mut s);
+            let (g, h) = fd_check(x, |x| edge(x[0], x[1], rest, false));
+            assert!(g < 1e-6 && h < 1e-6, "edge FD errors {g:e} {h:e}");
+        }
+    }
+
+    #[test]
+    fn triangle_derivatives_match_finite_differences() {
+        let mut s = 11u64;
+        for _ in 0..20 {
+            let x = [
+                DVec3::new(rng(&mut s), rng(&mut s), rng(&mut s)),
+                DVec3::new(2.0 + rng(&mut s), rng(&mut s), rng(&mut s)),
+                DVec3::new(rng(&mut s), 2.0 + rng(&mut s), rng(&mut s)),
+            ];
+            let rest = 1.0 + 0.5 * rng(&mut s);
+            let (g, h) = fd_check(x, |x| triangle(x, rest));
+            assert!(g < 1e-6 && h < 1e-6, "triangle FD errors {g:e} {h:e}");
+            let (a, ga) = area_gradient(&x);
+            let (_, g2, _) = triangle(&x, rest);
+            for k in 0..3 {
+                assert!((ga[k] * (2.0 * (a - rest) / rest) - g2[k]).length() < 1e-14);
+            }
+        }
+    }
+
+    #[test]
+    fn projected_edge_hessian_is_positive_semidefinite() {
+        let (_, _, h) = edge(DVec3::ZERO, DVec3::new(0.5, 0.0, 0.0), 1.0, true);
+        let m = nalgebra::SMatrix::<f64, 6, 6>::from_fn(|i, j| h[i][j]);
+        let ev = m.symmetric_eigenvalues();
+        assert!(ev.iter().all(|&l| l > -1e-12), "{ev}");
+        let (_, _, h) = edge(DVec3::ZERO, DVec3::new(0.5, 0.0, 0.0), 1.0, false);
+        let m = nalgebra::SMatrix::<f64, 6, 6>::from_fn(|i, j| h[i][j]);
+        assert!(m.symmetric_eigenvalues().iter().any(|&l| l < -0.1), "a compressed edge is indefinite");
+    }
+}

@@ -1,0 +1,14 @@
+//! Sparse linear algebra for the implicit and static solvers and for the modal stiffness:
+//! the block sparsity pattern of a `3n × 3n` Hessian computed once from element stencils, numeric
+//! assembly through precomputed value slots, DOF reduction for anchored vertices, and a sparse
+//! Cholesky wrapper (faer) that factorises the pattern symbolically once.
+
+mod assembly;
+mod cholesky;
+mod dofs;
+mod error;
+
+pub use assembly::BlockAssembler;
+pub use cholesky::SparseCholesky;
+pub use dofs::DofMap;
+pub use error::LinalgError;
