@@ -95,9 +95,10 @@ pub fn angle_hessian(x: &[DVec3; 4]) -> AngleDerivatives {
 
     // ∂|e|/∂x_k, ∂N₁/∂x_k, ∂N₂/∂x_k for k = a, b, c, d.
     let dl = [-eh, eh, DVec3::ZERO, DVec3::ZERO];
-    let z = DMat3::ZERO;
-    let dn1 = [cross_matrix(c - b), cross_matrix(a - c), cross_matrix(e), z];
-    let dn2 = [cross_matrix(b - d), cross_matrix(d - a), z, cross_matrix(-e)];
+    // ∂N/∂x_k = [v_k]×; these are the v_k.
+    let z = DVec3::ZERO;
+    let dn1 = [c - b, a - c, e, z];
+    let dn2 = [b - d, d - a, z, -e];
     // ∂s/∂x_k for a wing point w: s = (w − a)·e/|e|².
     let ds = |w: DVec3, s: f64| {
         let (wa, inv) = (w - a, 1.0 / l2);
@@ -112,12 +113,13 @@ pub fn angle_hessian(x: &[DVec3; 4]) -> AngleDerivatives {
 
     let u1 = n1 / q1.sqrt();
     let u2 = n2 / q2.sqrt();
-    let p1 = (DMat3::IDENTITY - outer(u1, u1) * 2.0) * (l / q1);
-    let p2 = (DMat3::IDENTITY - outer(u2, u2) * 2.0) * (l / q2);
+    // (I − 2ûûᵀ)[v]× = [v]× − 2û(û × v)ᵀ.
+    let reflect_cross = |u: DVec3, v: DVec3| cross_matrix(v) - outer(u * 2.0, u.cross(v));
+    let (r1, r2) = (l / q1, l / q2);
     let mut hess = [[DMat3::ZERO; 4]; 4];
     for k in 0..4 {
-        let hc = -(outer(n1, dl[k]) * (1.0 / q1) + p1 * dn1[k]);
-        let hd = -(outer(n2, dl[k]) * (1.0 / q2) + p2 * dn2[k]);
+        let hc = -(outer(n1 * (1.0 / q1), dl[k]) + reflect_cross(u1, dn1[k]) * r1);
+        let hd = -(outer(n2 * (1.0 / q2), dl[k]) + reflect_cross(u2, dn2[k]) * r2);
         let hb = -(outer(gc, ds1[k]) + hc * s1 + outer(gd, ds2[k]) + hd * s2);
         hess[0][k] = -(hb + hc + hd);
         hess[1][k] = hb;

@@ -239,76 +239,75 @@ impl DiscreteShell {
     }
 
     /// Compute every element's Hessian block (already multiplied by its stiffness) and hand it to
-    /// `sink(element, vertices, block)`, in element order; `block` is row-major `3k × 3k` for an
-    /// element of `k` vertices. Assemblers (see `crate::linalg`) scatter these into a sparse matrix.
+    /// `sink(element, vertices, block)`, in element order; `block` is the flat column-major `3k × 3k`
+    /// matrix of an element of `k` vertices (symmetric up to round-off, so row-major reads the same).
+    /// Assemblers (see `crate::linalg`) scatter these into a sparse matrix.
     pub fn element_hessians(&self, x: &[DVec3], mode: HessianMode, mut sink: impl FnMut(usize, &[usize], &[f64])) {
         self.check_len(x);
         let k = self.stiffness;
         let project = mode == HessianMode::Projected;
         let mut index = 0;
-        let mut flat = [0.0; 81];
         for t in &self.tris {
             let p = t.v.map(|i| x[i]);
             let (_, _, mut h) = triangle(&p, t.rest_area);
+            h.iter_mut().for_each(|v| *v *= k.k_area);
             if project {
                 project_psd9(&mut h);
             }
-            flat.iter_mut().zip(h.as_flattened()).for_each(|(f, v)| *f = v * k.k_area);
-            sink(index, &t.v, &flat);
+            sink(index, &t.v, &h);
             index += 1;
         }
-        let mut flat = [0.0; 36];
         for e in &self.edges {
-            let (_, _, h) = edge(x[e.v[0]], x[e.v[1]], e.rest_length, project);
-            flat.iter_mut().zip(h.as_flattened()).for_each(|(f, v)| *f = v * k.k_length);
-            sink(index, &e.v, &flat);
+            let (_, _, mut h) = edge(x[e.v[0]], x[e.v[1]], e.rest_length, project);
+            h.iter_mut().for_each(|v| *v *= k.k_length);
+            sink(index, &e.v, &h);
             index += 1;
         }
-        let mut flat = [0.0; 144];
+        let mut h = [0.0; 144];
         for hg in &self.hinges {
             let p = hg.v.map(|i| x[i]);
-            let mut h = hinge_hessian(&p, hg.rest_angle, hg.weight * k.k_bend);
+            hinge_hessian(&p, hg.rest_angle, hg.weight * k.k_bend, &mut h);
             if project {
                 project_psd12(&mut h);
             }
-            flat.copy_from_slice(h.as_flattened());
-            sink(index, &hg.v, &flat);
+            sink(index, &hg.v, &h);
             index += 1;
         }
     }
 }
 
-/// Hessian of `weight (θ − θ̄)²`: `2 weight (∇θ ∇θᵀ + (θ − θ̄) ∇²θ)`.
-fn hinge_hessian(p: &[DVec3; 4], rest: f64, weight: f64) -> [[f64; 12]; 12] {
+/// Hessian of `weight (θ − θ̄)²`, `2 weight (∇θ ∇θᵀ + (θ − θ̄) ∇²θ)`, into a flat 12 × 12 block.
+fn hinge_hessian(p: &[DVec3; 4], rest: f64, weight: f64, out: &mut [f64; 144]) {
     let d = angle_hessian(p);
     let delta = wrapped_difference(d.theta, rest);
-    let mut h = [[0.0; 12]; 12];
+    let s = 2.0 * weight;
     for a in 0..4 {
-        for b in 0..4 {
-            let m = (super::hinge::outer(d.grad[a], d.grad[b]) + d.hess[a][b] * delta) * (2.0 * weight);
-            put(&mut h, a, b, m);
+        for b in a..4 {
+            // ∇²θ is symmetric up to round-off; average the two computed blocks so the result is exact.
+            let hab = if a == b { d.hess[a][b] } else { (d.hess[a][b] + d.hess[b][a].transpose()) * 0.5 };
+            let m = (super::hinge::outer(d.grad[a], d.grad[b]) + hab * delta) * s;
+            put(out, 12, a, b, m);
+            if a != b {
+                put(out, 12, b, a, m.transpose());
+            }
         }
     }
-    h
 }
 
-/// Clamp the negative eigenvalues of a small symmetric block to zero (one function per block size,
-/// since nalgebra's fixed-size eigen solver needs concrete dimensions).
+/// Clamp the negative eigenvalues of a small symmetric flat block to zero (one function per block
+/// size, since nalgebra's fixed-size eigen solver needs concrete dimensions).
 macro_rules! project_psd_fn {
     ($name:ident, $n:literal) => {
-        fn $name(h: &mut [[f64; $n]; $n]) {
-            let m = SMatrix::<f64, $n, $n>::from_fn(|i, j| 0.5 * (h[i][j] + h[j][i]));
+        fn $name(h: &mut [f64; $n * $n]) {
+            let m = SMatrix::<f64, $n, $n>::from_column_slice(h);
+            let m = (m + m.transpose()) * 0.5;
             let eig = m.symmetric_eigen();
             if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
                 return;
             }
             let clamped = eig.eigenvalues.map(|l| l.max(0.0));
             let r = eig.eigenvectors * SMatrix::<f64, $n, $n>::from_diagonal(&clamped) * eig.eigenvectors.transpose();
-            for (i, row) in h.iter_mut().enumerate() {
-                for (j, v) in row.iter_mut().enumerate() {
-                    *v = r[(i, j)];
-                }
-            }
+            h.copy_from_slice(r.as_slice());
         }
     };
 }

@@ -3,19 +3,20 @@
 //! - Edge length: `E = (|e| − L)²/L = (1 − |e|/L)² L` for `e = x₁ − x₀` and rest length `L`.
 //! - Triangle area: `E = (A − Ā)²/Ā = (1 − A/Ā)² Ā` for current area `A` and rest area `Ā`.
 //!
-//! Both are unweighted (the stiffness multiplies them in [`super::shell`]). Hessians are returned
-//! as row-major dense blocks: `h[3p + i][3q + j] = ∂²E/∂x_{p,i}∂x_{q,j}`.
+//! Both are unweighted (the stiffness multiplies them in [`super::shell`]). Hessians are returned as
+//! flat column-major dense blocks: `h[(3q + j)·3k + 3p + i] = ∂²E/∂x_{p,i}∂x_{q,j}` for `k` points
+//! (symmetric, so row-major reads the same).
 
 use glam::{DMat3, DVec3};
 
 use super::hinge::{cross_matrix, outer};
 
-/// The edge term's value, gradient `[∂E/∂x₀, ∂E/∂x₁]` and Hessian (6 × 6).
+/// The edge term's value, gradient `[∂E/∂x₀, ∂E/∂x₁]` and Hessian (6 × 6, column-major).
 ///
 /// Compressed edges (`|e| < L`) have a negative transverse stiffness `2(1 − L/|e|)/L`; with
 /// `project` it is clamped to zero, which is the exact PSD projection of this element (its other
 /// eigenvalue, along the edge, is `4/L > 0`).
-pub fn edge(x0: DVec3, x1: DVec3, rest: f64, project: bool) -> (f64, [DVec3; 2], [[f64; 6]; 6]) {
+pub fn edge(x0: DVec3, x1: DVec3, rest: f64, project: bool) -> (f64, [DVec3; 2], [f64; 36]) {
     let e = x1 - x0;
     let l = e.length();
     let u = e / l;
@@ -27,9 +28,9 @@ pub fn edge(x0: DVec3, x1: DVec3, rest: f64, project: bool) -> (f64, [DVec3; 2],
         transverse = transverse.max(0.0);
     }
     let k = outer(u, u) * (2.0 / rest - transverse) + DMat3::IDENTITY * transverse;
-    let mut h = [[0.0; 6]; 6];
+    let mut h = [0.0; 36];
     for (p, q, s) in [(0, 0, 1.0), (0, 1, -1.0), (1, 0, -1.0), (1, 1, 1.0)] {
-        put(&mut h, p, q, k * s);
+        put(&mut h, 6, p, q, k * s);
     }
     (value, [-g, g], h)
 }
@@ -44,8 +45,8 @@ pub fn area_gradient(x: &[DVec3; 3]) -> (f64, [DVec3; 3]) {
     (0.5 * len, [u.cross(r - q) * 0.5, u.cross(p - r) * 0.5, u.cross(q - p) * 0.5])
 }
 
-/// The triangle term's value, gradient and Hessian (9 × 9), for rest area `rest`.
-pub fn triangle(x: &[DVec3; 3], rest: f64) -> (f64, [DVec3; 3], [[f64; 9]; 9]) {
+/// The triangle term's value, gradient and Hessian (9 × 9, column-major), for rest area `rest`.
+pub fn triangle(x: &[DVec3; 3], rest: f64) -> (f64, [DVec3; 3], [f64; 81]) {
     let [p, q, r] = *x;
     let n = (q - p).cross(r - p);
     let len = n.length();
@@ -55,34 +56,39 @@ pub fn triangle(x: &[DVec3; 3], rest: f64) -> (f64, [DVec3; 3], [[f64; 9]; 9]) {
     let diff = area - rest;
     let value = diff * diff / rest;
     let grad = ga.map(|g| g * (2.0 * diff / rest));
-    // ∇²A = (1/(2|N|)) Jᵀ(I − n̂n̂ᵀ)J + ½ Σᵢ n̂ᵢ ∇²Nᵢ, with J_k = ∂N/∂x_k.
-    let jac = [cross_matrix(r - q), cross_matrix(p - r), cross_matrix(q - p)];
-    let proj = (DMat3::IDENTITY - outer(u, u)) * (0.5 / len);
+    // ∇²A = (1/(2|N|)) Jᵀ(I − n̂n̂ᵀ)J + ½ Σᵢ n̂ᵢ ∇²Nᵢ, with J_k = ∂N/∂x_k = [v_k]× (v_k the edge
+    // opposite k). For J_k = [a]×, J_l = [b]×: [a]×ᵀ(I − n̂n̂ᵀ)[b]× = (a·b) I − b aᵀ − (n̂ × a)(n̂ × b)ᵀ.
+    let v = [r - q, p - r, q - p];
+    let uv = v.map(|a| u.cross(a));
+    let c = 0.5 / len;
     let un = cross_matrix(u) * 0.5;
-    // Second term: block (k, l) = ∂(½ n̂ × (opposite edge of k))/∂x_l with n̂ fixed.
-    let second = |k: usize, l: usize| match (l + 3 - k) % 3 {
-        0 => DMat3::ZERO,
-        1 => -un,
-        _ => un,
-    };
-    let mut h = [[0.0; 9]; 9];
+    let s = 2.0 / rest;
+    let mut h = [0.0; 81];
     for k in 0..3 {
-        for l in 0..3 {
-            let hess_a = jac[k].transpose() * proj * jac[l] + second(k, l);
-            let block = (outer(ga[k], ga[l]) + hess_a * diff) * (2.0 / rest);
-            put(&mut h, k, l, block);
+        for l in k..3 {
+            let (a, b) = (v[k], v[l]);
+            let first = (DMat3::from_diagonal(DVec3::splat(a.dot(b))) - outer(b, a) - outer(uv[k], uv[l])) * c;
+            // Second term: block (k, l) = ∂(½ n̂ × v_k)/∂x_l with n̂ fixed.
+            let second = match (l + 3 - k) % 3 {
+                0 => DMat3::ZERO,
+                1 => -un,
+                _ => un,
+            };
+            let block = (outer(ga[k], ga[l]) + (first + second) * diff) * s;
+            put(&mut h, 9, k, l, block);
+            if l != k {
+                put(&mut h, 9, l, k, block.transpose());
+            }
         }
     }
     (value, grad, h)
 }
 
-/// Write the 3 × 3 block `m` at block position `(p, q)` of a row-major dense matrix.
-pub(crate) fn put<const N: usize>(h: &mut [[f64; N]; N], p: usize, q: usize, m: DMat3) {
-    for j in 0..3 {
-        let c = m.col(j);
-        for i in 0..3 {
-            h[3 * p + i][3 * q + j] = c[i];
-        }
+/// Write the 3 × 3 block `m` at block position `(p, q)` of a flat column-major `n × n` matrix.
+pub(crate) fn put(h: &mut [f64], n: usize, p: usize, q: usize, m: DMat3) {
+    for c in 0..3 {
+        let start = (3 * q + c) * n + 3 * p;
+        h[start..start + 3].copy_from_slice(&m.col(c).to_array());
     }
 }
 
@@ -98,10 +104,11 @@ mod tests {
     }
 
     /// Relative max-norm error of FD gradient (from values) and FD Hessian (from gradients).
-    fn fd_check<const V: usize, const N: usize>(
+    fn fd_check<const V: usize, const M: usize>(
         x: [DVec3; V],
-        f: impl Fn(&[DVec3; V]) -> (f64, [DVec3; V], [[f64; N]; N]),
+        f: impl Fn(&[DVec3; V]) -> (f64, [DVec3; V], [f64; M]),
     ) -> (f64, f64) {
+        let n = 3 * V;
         let h = 1e-6;
         let (_, g, hess) = f(&x);
         let (mut ge, mut gr, mut he, mut hr) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
@@ -117,8 +124,9 @@ mod tests {
                 for q in 0..V {
                     for j in 0..3 {
                         let fd = (gp[q][j] - gm[q][j]) / (2.0 * h);
-                        he = he.max((fd - hess[3 * q + j][3 * p + i]).abs());
-                        hr = hr.max(hess[3 * q + j][3 * p + i].abs());
+                        // Row 3q + j, column 3p + i.
+                        he = he.max((fd - hess[(3 * p + i) * n + 3 * q + j]).abs());
+                        hr = hr.max(hess[(3 * p + i) * n + 3 * q + j].abs());
                     }
                 }
             }
@@ -160,11 +168,11 @@ mod tests {
     #[test]
     fn projected_edge_hessian_is_positive_semidefinite() {
         let (_, _, h) = edge(DVec3::ZERO, DVec3::new(0.5, 0.0, 0.0), 1.0, true);
-        let m = nalgebra::SMatrix::<f64, 6, 6>::from_fn(|i, j| h[i][j]);
+        let m = nalgebra::SMatrix::<f64, 6, 6>::from_column_slice(&h);
         let ev = m.symmetric_eigenvalues();
         assert!(ev.iter().all(|&l| l > -1e-12), "{ev}");
         let (_, _, h) = edge(DVec3::ZERO, DVec3::new(0.5, 0.0, 0.0), 1.0, false);
-        let m = nalgebra::SMatrix::<f64, 6, 6>::from_fn(|i, j| h[i][j]);
+        let m = nalgebra::SMatrix::<f64, 6, 6>::from_column_slice(&h);
         assert!(m.symmetric_eigenvalues().iter().any(|&l| l < -0.1), "a compressed edge is indefinite");
     }
 }

@@ -3,8 +3,9 @@
 //! The matrix is `3m × 3m` over the `m` free blocks of a [`DofMap`], stored in full (both triangles)
 //! in faer's compressed sparse column format. Each block column `j` holds the sorted row blocks `R_j`;
 //! its three scalar columns share that row pattern, so the entry `(3i + r, 3j + c)` of block `(i, j)`
-//! sits at `base(i, j) + c · 3|R_j| + r`. Every element stores one `(base, stride)` slot per ordered
-//! vertex pair, computed at construction, so assembly is a branch-light scatter with no searching.
+//! sits at `base(i, j) + c · 3|R_j| + r`. Every element stores, for each of its `3k` local columns and
+//! each of its `k` vertices, the offset of the three contiguous values it adds to — computed at
+//! construction — so numeric assembly is a sequential walk over the element block with no searching.
 
 use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
 
@@ -14,18 +15,13 @@ use glam::DVec3;
 
 const SKIP: u32 = u32::MAX;
 
-/// Where one 3 × 3 block lives in the value array.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct Slot {
-    base: u32,
-    stride: u32,
-}
-
 /// A sparse symmetric block matrix with a fixed pattern and per-element value slots.
 #[derive(Debug, Clone)]
 pub struct BlockAssembler {
     matrix: SparseColMat<usize, f64>,
-    slots: Vec<Slot>,
+    /// Per element, in local column-major order `t = (3q + c)·k + p`: offset of rows `3p..3p+3` of
+    /// local column `3q + c` in the value array, or `SKIP`.
+    offsets: Vec<u32>,
     element_start: Vec<usize>,
     diagonal: Vec<usize>,
 }
@@ -71,33 +67,31 @@ impl BlockAssembler {
                 row_idx.extend(r.iter().flat_map(|&i| (0..3).map(move |k| 3 * i as usize + k)));
             }
         }
-        let slot_of = |i: usize, j: usize| -> Slot {
+        // Offset of entry (3i, 3j + c).
+        let offset = |i: usize, j: usize, c: usize| -> usize {
             let pos = rows[j].binary_search(&(i as u32)).unwrap_or_else(|_| unreachable!("pattern contains the pair"));
-            Slot { base: (bases[j] + 3 * pos) as u32, stride: (3 * rows[j].len()) as u32 }
+            bases[j] + 3 * pos + c * 3 * rows[j].len()
         };
-        let mut slots = Vec::new();
+        let mut offsets = Vec::new();
         let mut element_start = Vec::with_capacity(stencils.len() + 1);
         for s in &stencils {
-            element_start.push(slots.len());
-            for &vp in s.iter() {
-                for &vq in s.iter() {
-                    slots.push(match (dofs.block(vp), dofs.block(vq)) {
-                        (Some(i), Some(j)) => slot_of(i, j),
-                        _ => Slot { base: SKIP, stride: 0 },
-                    });
+            element_start.push(offsets.len());
+            for &vq in s.iter() {
+                for c in 0..3 {
+                    for &vp in s.iter() {
+                        offsets.push(match (dofs.block(vp), dofs.block(vq)) {
+                            (Some(i), Some(j)) => offset(i, j, c) as u32,
+                            _ => SKIP,
+                        });
+                    }
                 }
             }
         }
-        element_start.push(slots.len());
-        let diagonal = (0..m)
-            .flat_map(|j| {
-                let s = slot_of(j, j);
-                (0..3).map(move |c| (s.base + c * s.stride + c) as usize)
-            })
-            .collect();
+        element_start.push(offsets.len());
+        let diagonal = (0..m).flat_map(|j| (0..3).map(move |c| (j, c))).map(|(j, c)| offset(j, j, c) + c).collect();
         let symbolic = SymbolicSparseColMat::new_checked(3 * m, 3 * m, col_ptr, None, row_idx);
         let matrix = SparseColMat::new(symbolic, vec![0.0; nnz]);
-        Ok(Self { matrix, slots, element_start, diagonal })
+        Ok(Self { matrix, offsets, element_start, diagonal })
     }
 
     /// The pattern of a shell's Hessian over `dofs`.
@@ -122,30 +116,25 @@ impl BlockAssembler {
         self.matrix.val_mut().fill(0.0);
     }
 
-    /// Add an element's dense row-major `3k × 3k` block (`k` = its stencil's vertex count).
+    /// Add an element's dense `3k × 3k` block (`k` = its stencil's vertex count) in column-major order
+    /// (for the symmetric blocks of a Hessian this is the same as row-major).
     pub fn add_element(&mut self, element: usize, block: &[f64]) -> Result<(), LinalgError> {
         let (Some(&start), Some(&end)) = (self.element_start.get(element), self.element_start.get(element + 1)) else {
             return Err(LinalgError::BadBlock { element, len: block.len() });
         };
-        let k = (end - start).isqrt();
-        let n = 3 * k;
-        if block.len() != n * n {
+        if block.len() != 3 * (end - start) {
             return Err(LinalgError::BadBlock { element, len: block.len() });
         }
         let vals = self.matrix.val_mut();
-        for p in 0..k {
-            for q in 0..k {
-                let s = self.slots[start + p * k + q];
-                if s.base == SKIP {
-                    continue;
-                }
-                for c in 0..3 {
-                    let col = s.base as usize + c * s.stride as usize;
-                    let dst = &mut vals[col..col + 3];
-                    for (r, d) in dst.iter_mut().enumerate() {
-                        *d += block[(3 * p + r) * n + 3 * q + c];
-                    }
-                }
+        for (&off, src) in self.offsets[start..end].iter().zip(block.chunks_exact(3)) {
+            if off == SKIP {
+                continue;
+            }
+            let off = off as usize;
+            if let Some(dst) = vals.get_mut(off..off + 3) {
+                dst[0] += src[0];
+                dst[1] += src[1];
+                dst[2] += src[2];
             }
         }
         Ok(())
@@ -232,12 +221,14 @@ mod tests {
         for i in 0..6 {
             for j in 0..6 {
                 // Element 1 maps its vertex 1 (local 0) to block 1 and drops local vertex 1.
-                let extra = if i >= 3 && j >= 3 { block[(i - 3) * 6 + (j - 3)] } else { 0.0 };
-                assert_eq!(d[i][j], block[i * 6 + j] + extra, "entry ({i}, {j})");
+                // Blocks are column-major: entry (i, j) is block[j * 6 + i].
+                let extra = if i >= 3 && j >= 3 { block[(j - 3) * 6 + (i - 3)] } else { 0.0 };
+                assert_eq!(d[i][j], block[j * 6 + i] + extra, "entry ({i}, {j})");
             }
         }
         a.add_diagonal(&[1.0; 6]);
         assert_eq!(a.to_dense()[4][4], block[4 * 6 + 4] + block[7] + 1.0);
+        assert_eq!(a.to_dense()[3][4], block[4 * 6 + 3] + block[6]);
         assert!(a.add_element(0, &block[..9]).is_err());
         assert!(a.add_element(5, &block).is_err());
         assert!(BlockAssembler::new(&dofs, [&[0usize, 7][..]]).is_err());
