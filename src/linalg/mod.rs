@@ -1,3 +1,16 @@
-//! Linear algebra: eigen solvers (and, from the shell branch, sparse assembly and factorisations).
+//! Sparse linear algebra for the implicit and static solvers and for the modal stiffness:
+//! shift-invert Lanczos for the lowest modes ([`lanczos`]),
+//! the block sparsity pattern of a `3n × 3n` Hessian computed once from element stencils, numeric
+//! assembly through precomputed value slots, DOF reduction for anchored vertices, and a sparse
+//! Cholesky wrapper (faer) that factorises the pattern symbolically once.
 
+mod assembly;
+mod cholesky;
+mod dofs;
+mod error;
 pub mod lanczos;
+
+pub use assembly::BlockAssembler;
+pub use cholesky::SparseCholesky;
+pub use dofs::DofMap;
+pub use error::LinalgError;

@@ -1,0 +1,16 @@
+//! Pure functions of positions: values, gradients and Hessians of the elastic energies.
+//!
+//! Nothing here keeps simulation state; everything is checked against central finite differences.
+//! The discrete shell energy of SPEC §1 (Grinspun et al. 2003) lives in [`shell`], built from the
+//! per-element terms in [`stretch`] (edge length, triangle area) and [`hinge`] (dihedral angle).
+
+mod error;
+pub mod hinge;
+pub mod shell;
+pub mod stretch;
+
+pub use error::EnergyError;
+pub use shell::{DiscreteShell, EnergyTerms, HessianMode, ShellStiffness};
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,315 @@
+//! The discrete shell energy `W = k_A E_A + k_L E_L + k_B E_B` (SPEC §1, Grinspun et al. 2003) on any
+//! triangle mesh, as a pure function of the current positions.
+//!
+//! - `E_A = Σ_t (1 − A_t/Ā_t)² Ā_t` over triangles,
+//! - `E_L = Σ_e (1 − |e|/|ē|)² |ē|` over all edges,
+//! - `E_B = Σ_e (θ_e − θ̄_e)² · 3|ē|²/(Ā₁ + Ā₂)` over interior edges, with the signed atan2 angle of
+//!   [`super::hinge`] and `θ − θ̄` wrapped to `[−π, π)` so curved rest shapes (the V-beam) are safe.
+//!
+//! Element order (used by [`DiscreteShell::for_each_stencil`] and
+//! [`DiscreteShell::element_hessians`]): all triangles, then all edges, then all hinges.
+
+use glam::DVec3;
+use nalgebra::SMatrix;
+
+use super::EnergyError;
+use super::hinge::{angle_gradient, angle_hessian, wrapped_difference};
+use super::stretch::{area_gradient, edge, put, triangle};
+use crate::mesh::TriMesh;
+
+/// The three stiffnesses of the shell energy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShellStiffness {
+    /// Area (stretch) stiffness `k_A`.
+    pub k_area: f64,
+    /// Edge-length (shear) stiffness `k_L`.
+    pub k_length: f64,
+    /// Bending stiffness `k_B`.
+    pub k_bend: f64,
+}
+
+impl ShellStiffness {
+    fn check(&self) -> Result<(), EnergyError> {
+        for (name, value) in [("k_area", self.k_area), ("k_length", self.k_length), ("k_bend", self.k_bend)] {
+            if !value.is_finite() || value < 0.0 {
+                return Err(EnergyError::BadStiffness { name, value });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The unweighted energy terms `E_A`, `E_L`, `E_B`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct EnergyTerms {
+    /// `E_A`.
+    pub area: f64,
+    /// `E_L`.
+    pub length: f64,
+    /// `E_B`.
+    pub bend: f64,
+}
+
+/// Which Hessian to produce.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HessianMode {
+    /// The exact second derivative (indefinite away from rest in general).
+    Exact,
+    /// Per-element projection onto the positive semidefinite cone: each element's block is
+    /// eigen-decomposed (12 × 12 hinge, 9 × 9 triangle; the 6 × 6 edge block analytically) and negative
+    /// eigenvalues are clamped to zero. The sum is then PSD, which Newton methods need for a descent
+    /// direction far from equilibrium.
+    Projected,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Tri {
+    v: [usize; 3],
+    rest_area: f64,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct EdgeElem {
+    v: [usize; 2],
+    rest_length: f64,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct HingeElem {
+    v: [usize; 4],
+    weight: f64,
+    rest_angle: f64,
+}
+
+/// The discrete shell energy of one rest mesh: rest lengths, areas, angles and hinge weights
+/// precomputed; positions are passed to every call.
+#[derive(Debug, Clone)]
+pub struct DiscreteShell {
+    vertex_count: usize,
+    stiffness: ShellStiffness,
+    tris: Vec<Tri>,
+    edges: Vec<EdgeElem>,
+    hinges: Vec<HingeElem>,
+}
+
+impl DiscreteShell {
+    /// Precompute the rest state of `rest`. Fails on a bad stiffness or a degenerate rest element.
+    pub fn new(rest: &TriMesh, stiffness: ShellStiffness) -> Result<Self, EnergyError> {
+        stiffness.check()?;
+        let x = rest.positions();
+        let areas = rest.triangle_areas();
+        if let Some((triangle, &area)) = areas.iter().enumerate().find(|(_, a)| !(a.is_finite() && **a > 0.0)) {
+            return Err(EnergyError::DegenerateTriangle { triangle, area });
+        }
+        let tris = rest.triangles().iter().zip(&areas).map(|(&v, &rest_area)| Tri { v, rest_area }).collect();
+        let topo = rest.topology();
+        let mut edges = Vec::with_capacity(topo.edges.len());
+        for (i, e) in topo.edges.iter().enumerate() {
+            let length = (x[e.v[1]] - x[e.v[0]]).length();
+            if !(length.is_finite() && length > 0.0) {
+                return Err(EnergyError::DegenerateEdge { edge: i, length });
+            }
+            edges.push(EdgeElem { v: e.v, rest_length: length });
+        }
+        let hinges = topo
+            .hinges
+            .iter()
+            .map(|h| {
+                let l = edges[h.edge].rest_length;
+                let p = h.v.map(|i| x[i]);
+                let (rest_angle, _) = angle_gradient(&p);
+                HingeElem { v: h.v, weight: 3.0 * l * l / (areas[h.faces[0]] + areas[h.faces[1]]), rest_angle }
+            })
+            .collect();
+        Ok(Self { vertex_count: rest.vertex_count(), stiffness, tris, edges, hinges })
+    }
+
+    /// Number of vertices the positions must have.
+    pub fn vertex_count(&self) -> usize {
+        self.vertex_count
+    }
+
+    /// The current stiffnesses.
+    pub fn stiffness(&self) -> ShellStiffness {
+        self.stiffness
+    }
+
+    /// Change the stiffnesses (the rest state is kept).
+    pub fn set_stiffness(&mut self, stiffness: ShellStiffness) -> Result<(), EnergyError> {
+        stiffness.check()?;
+        self.stiffness = stiffness;
+        Ok(())
+    }
+
+    /// Number of elements (triangles + edges + hinges), the length of the stencil sequence.
+    pub fn element_count(&self) -> usize {
+        self.tris.len() + self.edges.len() + self.hinges.len()
+    }
+
+    /// Rest dihedral angle of every hinge, in [`crate::mesh::Topology::hinges`] order.
+    pub fn rest_angles(&self) -> Vec<f64> {
+        self.hinges.iter().map(|h| h.rest_angle).collect()
+    }
+
+    /// Call `f` with the vertices of every element, in element order.
+    pub fn for_each_stencil(&self, mut f: impl FnMut(&[usize])) {
+        self.tris.iter().for_each(|t| f(&t.v));
+        self.edges.iter().for_each(|e| f(&e.v));
+        self.hinges.iter().for_each(|h| f(&h.v));
+    }
+
+    fn check_len(&self, x: &[DVec3]) {
+        assert_eq!(x.len(), self.vertex_count, "positions must have one entry per vertex");
+    }
+
+    /// The unweighted terms `E_A`, `E_L`, `E_B` at positions `x`.
+    ///
+    /// # Panics
+    /// If `x.len()` is not [`DiscreteShell::vertex_count`] (likewise for every method taking positions).
+    pub fn terms(&self, x: &[DVec3]) -> EnergyTerms {
+        self.check_len(x);
+        let area = self
+            .tris
+            .iter()
+            .map(|t| {
+                let a = 0.5 * (x[t.v[1]] - x[t.v[0]]).cross(x[t.v[2]] - x[t.v[0]]).length();
+                (a - t.rest_area).powi(2) / t.rest_area
+            })
+            .sum();
+        let length =
+            self.edges.iter().map(|e| ((x[e.v[1]] - x[e.v[0]]).length() - e.rest_length).powi(2) / e.rest_length).sum();
+        let bend = self
+            .hinges
+            .iter()
+            .map(|h| {
+                let p = h.v.map(|i| x[i]);
+                wrapped_difference(super::hinge::angle(&p), h.rest_angle).powi(2) * h.weight
+            })
+            .sum();
+        EnergyTerms { area, length, bend }
+    }
+
+    /// `W(x)`.
+    pub fn energy(&self, x: &[DVec3]) -> f64 {
+        let t = self.terms(x);
+        let k = self.stiffness;
+        k.k_area * t.area + k.k_length * t.length + k.k_bend * t.bend
+    }
+
+    /// Write `∂W/∂x` into `out` (overwritten) and return `W(x)`.
+    ///
+    /// # Panics
+    /// If `x` or `out` does not have one entry per vertex.
+    pub fn gradient(&self, x: &[DVec3], out: &mut [DVec3]) -> f64 {
+        self.check_len(x);
+        assert_eq!(out.len(), self.vertex_count, "gradient must have one entry per vertex");
+        out.fill(DVec3::ZERO);
+        let k = self.stiffness;
+        let mut w = 0.0;
+        for t in &self.tris {
+            let p = t.v.map(|i| x[i]);
+            let (a, g) = area_gradient(&p);
+            let diff = a - t.rest_area;
+            w += k.k_area * diff * diff / t.rest_area;
+            let s = k.k_area * 2.0 * diff / t.rest_area;
+            for (j, &i) in t.v.iter().enumerate() {
+                out[i] += g[j] * s;
+            }
+        }
+        for e in &self.edges {
+            let d = x[e.v[1]] - x[e.v[0]];
+            let l = d.length();
+            let r = l - e.rest_length;
+            w += k.k_length * r * r / e.rest_length;
+            let g = d * (k.k_length * 2.0 * r / (e.rest_length * l));
+            out[e.v[0]] -= g;
+            out[e.v[1]] += g;
+        }
+        for h in &self.hinges {
+            let p = h.v.map(|i| x[i]);
+            let (theta, g) = angle_gradient(&p);
+            let delta = wrapped_difference(theta, h.rest_angle);
+            w += k.k_bend * h.weight * delta * delta;
+            let s = k.k_bend * h.weight * 2.0 * delta;
+            for (j, &i) in h.v.iter().enumerate() {
+                out[i] += g[j] * s;
+            }
+        }
+        w
+    }
+
+    /// Compute every element's Hessian block (already multiplied by its stiffness) and hand it to
+    /// `sink(element, vertices, block)`, in element order; `block` is the flat column-major `3k × 3k`
+    /// matrix of an element of `k` vertices (symmetric up to round-off, so row-major reads the same).
+    /// Assemblers (see `crate::linalg`) scatter these into a sparse matrix.
+    pub fn element_hessians(&self, x: &[DVec3], mode: HessianMode, mut sink: impl FnMut(usize, &[usize], &[f64])) {
+        self.check_len(x);
+        let k = self.stiffness;
+        let project = mode == HessianMode::Projected;
+        let mut index = 0;
+        for t in &self.tris {
+            let p = t.v.map(|i| x[i]);
+            let (_, _, mut h) = triangle(&p, t.rest_area);
+            h.iter_mut().for_each(|v| *v *= k.k_area);
+            if project {
+                project_psd9(&mut h);
+            }
+            sink(index, &t.v, &h);
+            index += 1;
+        }
+        for e in &self.edges {
+            let (_, _, mut h) = edge(x[e.v[0]], x[e.v[1]], e.rest_length, project);
+            h.iter_mut().for_each(|v| *v *= k.k_length);
+            sink(index, &e.v, &h);
+            index += 1;
+        }
+        let mut h = [0.0; 144];
+        for hg in &self.hinges {
+            let p = hg.v.map(|i| x[i]);
+            hinge_hessian(&p, hg.rest_angle, hg.weight * k.k_bend, &mut h);
+            if project {
+                project_psd12(&mut h);
+            }
+            sink(index, &hg.v, &h);
+            index += 1;
+        }
+    }
+}
+
+/// Hessian of `weight (θ − θ̄)²`, `2 weight (∇θ ∇θᵀ + (θ − θ̄) ∇²θ)`, into a flat 12 × 12 block.
+fn hinge_hessian(p: &[DVec3; 4], rest: f64, weight: f64, out: &mut [f64; 144]) {
+    let d = angle_hessian(p);
+    let delta = wrapped_difference(d.theta, rest);
+    let s = 2.0 * weight;
+    for a in 0..4 {
+        for b in a..4 {
+            // ∇²θ is symmetric up to round-off; average the two computed blocks so the result is exact.
+            let hab = if a == b { d.hess[a][b] } else { (d.hess[a][b] + d.hess[b][a].transpose()) * 0.5 };
+            let m = (super::hinge::outer(d.grad[a], d.grad[b]) + hab * delta) * s;
+            put(out, 12, a, b, m);
+            if a != b {
+                put(out, 12, b, a, m.transpose());
+            }
+        }
+    }
+}
+
+/// Clamp the negative eigenvalues of a small symmetric flat block to zero (one function per block
+/// size, since nalgebra's fixed-size eigen solver needs concrete dimensions).
+macro_rules! project_psd_fn {
+    ($name:ident, $n:literal) => {
+        fn $name(h: &mut [f64; $n * $n]) {
+            let m = SMatrix::<f64, $n, $n>::from_column_slice(h);
+            let m = (m + m.transpose()) * 0.5;
+            let eig = m.symmetric_eigen();
+            if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
+                return;
+            }
+            let clamped = eig.eigenvalues.map(|l| l.max(0.0));
+            let r = eig.eigenvectors * SMatrix::<f64, $n, $n>::from_diagonal(&clamped) * eig.eigenvectors.transpose();
+            h.copy_from_slice(r.as_slice());
+        }
+    };
+}
+project_psd_fn!(project_psd9, 9);
+project_psd_fn!(project_psd12, 12);

@@ -1,0 +1,178 @@
+//! Membrane terms of the discrete shell, per element: value, gradient and Hessian.
+//!
+//! - Edge length: `E = (|e| − L)²/L = (1 − |e|/L)² L` for `e = x₁ − x₀` and rest length `L`.
+//! - Triangle area: `E = (A − Ā)²/Ā = (1 − A/Ā)² Ā` for current area `A` and rest area `Ā`.
+//!
+//! Both are unweighted (the stiffness multiplies them in [`super::shell`]). Hessians are returned as
+//! flat column-major dense blocks: `h[(3q + j)·3k + 3p + i] = ∂²E/∂x_{p,i}∂x_{q,j}` for `k` points
+//! (symmetric, so row-major reads the same).
+
+use glam::{DMat3, DVec3};
+
+use super::hinge::{cross_matrix, outer};
+
+/// The edge term's value, gradient `[∂E/∂x₀, ∂E/∂x₁]` and Hessian (6 × 6, column-major).
+///
+/// Compressed edges (`|e| < L`) have a negative transverse stiffness `2(1 − L/|e|)/L`; with
+/// `project` it is clamped to zero, which is the exact PSD projection of this element (its other
+/// eigenvalue, along the edge, is `4/L > 0`).
+pub fn edge(x0: DVec3, x1: DVec3, rest: f64, project: bool) -> (f64, [DVec3; 2], [f64; 36]) {
+    let e = x1 - x0;
+    let l = e.length();
+    let u = e / l;
+    let r = l - rest;
+    let value = r * r / rest;
+    let g = u * (2.0 * r / rest);
+    let mut transverse = 2.0 * r / (l * rest);
+    if project {
+        transverse = transverse.max(0.0);
+    }
+    let k = outer(u, u) * (2.0 / rest - transverse) + DMat3::IDENTITY * transverse;
+    let mut h = [0.0; 36];
+    for (p, q, s) in [(0, 0, 1.0), (0, 1, -1.0), (1, 0, -1.0), (1, 1, 1.0)] {
+        put(&mut h, 6, p, q, k * s);
+    }
+    (value, [-g, g], h)
+}
+
+/// The area of triangle `(p, q, r)` and its gradient.
+pub fn area_gradient(x: &[DVec3; 3]) -> (f64, [DVec3; 3]) {
+    let [p, q, r] = *x;
+    let n = (q - p).cross(r - p);
+    let len = n.length();
+    let u = n / len;
+    // ∇_p A = ½ [r − q]×ᵀ n̂ = ½ n̂ × (r − q), and cyclically.
+    (0.5 * len, [u.cross(r - q) * 0.5, u.cross(p - r) * 0.5, u.cross(q - p) * 0.5])
+}
+
+/// The triangle term's value, gradient and Hessian (9 × 9, column-major), for rest area `rest`.
+pub fn triangle(x: &[DVec3; 3], rest: f64) -> (f64, [DVec3; 3], [f64; 81]) {
+    let [p, q, r] = *x;
+    let n = (q - p).cross(r - p);
+    let len = n.length();
+    let u = n / len;
+    let area = 0.5 * len;
+    let ga = [u.cross(r - q) * 0.5, u.cross(p - r) * 0.5, u.cross(q - p) * 0.5];
+    let diff = area - rest;
+    let value = diff * diff / rest;
+    let grad = ga.map(|g| g * (2.0 * diff / rest));
+    // ∇²A = (1/(2|N|)) Jᵀ(I − n̂n̂ᵀ)J + ½ Σᵢ n̂ᵢ ∇²Nᵢ, with J_k = ∂N/∂x_k = [v_k]× (v_k the edge
+    // opposite k). For J_k = [a]×, J_l = [b]×: [a]×ᵀ(I − n̂n̂ᵀ)[b]× = (a·b) I − b aᵀ − (n̂ × a)(n̂ × b)ᵀ.
+    let v = [r - q, p - r, q - p];
+    let uv = v.map(|a| u.cross(a));
+    let c = 0.5 / len;
+    let un = cross_matrix(u) * 0.5;
+    let s = 2.0 / rest;
+    let mut h = [0.0; 81];
+    for k in 0..3 {
+        for l in k..3 {
+            let (a, b) = (v[k], v[l]);
+            let first = (DMat3::from_diagonal(DVec3::splat(a.dot(b))) - outer(b, a) - outer(uv[k], uv[l])) * c;
+            // Second term: block (k, l) = ∂(½ n̂ × v_k)/∂x_l with n̂ fixed.
+            let second = match (l + 3 - k) % 3 {
+                0 => DMat3::ZERO,
+                1 => -un,
+                _ => un,
+            };
+            let block = (outer(ga[k], ga[l]) + (first + second) * diff) * s;
+            put(&mut h, 9, k, l, block);
+            if l != k {
+                put(&mut h, 9, l, k, block.transpose());
+            }
+        }
+    }
+    (value, grad, h)
+}
+
+/// Write the 3 × 3 block `m` at block position `(p, q)` of a flat column-major `n × n` matrix.
+pub(crate) fn put(h: &mut [f64], n: usize, p: usize, q: usize, m: DMat3) {
+    for c in 0..3 {
+        let start = (3 * q + c) * n + 3 * p;
+        h[start..start + 3].copy_from_slice(&m.col(c).to_array());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rng(seed: &mut u64) -> f64 {
+        *seed ^= *seed << 13;
+        *seed ^= *seed >> 7;
+        *seed ^= *seed << 17;
+        (*seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+
+    /// Relative max-norm error of FD gradient (from values) and FD Hessian (from gradients).
+    fn fd_check<const V: usize, const M: usize>(
+        x: [DVec3; V],
+        f: impl Fn(&[DVec3; V]) -> (f64, [DVec3; V], [f64; M]),
+    ) -> (f64, f64) {
+        let n = 3 * V;
+        let h = 1e-6;
+        let (_, g, hess) = f(&x);
+        let (mut ge, mut gr, mut he, mut hr) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for p in 0..V {
+            for i in 0..3 {
+                let (mut xp, mut xm) = (x, x);
+                xp[p][i] += h;
+                xm[p][i] -= h;
+                let (vp, gp, _) = f(&xp);
+                let (vm, gm, _) = f(&xm);
+                ge = ge.max(((vp - vm) / (2.0 * h) - g[p][i]).abs());
+                gr = gr.max(g[p][i].abs());
+                for q in 0..V {
+                    for j in 0..3 {
+                        let fd = (gp[q][j] - gm[q][j]) / (2.0 * h);
+                        // Row 3q + j, column 3p + i.
+                        he = he.max((fd - hess[(3 * p + i) * n + 3 * q + j]).abs());
+                        hr = hr.max(hess[(3 * p + i) * n + 3 * q + j].abs());
+                    }
+                }
+            }
+        }
+        (ge / gr, he / hr)
+    }
+
+    #[test]
+    fn edge_derivatives_match_finite_differences() {
+        let mut s = 7u64;
+        for _ in 0..20 {
+            let x = [DVec3::new(rng(&mut s), rng(&mut s), rng(&mut s)), DVec3::new(rng(&mut s), 2.0, rng(&mut s))];
+            let rest = 1.5 + rng(&mut s);
+            let (g, h) = fd_check(x, |x| edge(x[0], x[1], rest, false));
+            assert!(g < 1e-6 && h < 1e-6, "edge FD errors {g:e} {h:e}");
+        }
+    }
+
+    #[test]
+    fn triangle_derivatives_match_finite_differences() {
+        let mut s = 11u64;
+        for _ in 0..20 {
+            let x = [
+                DVec3::new(rng(&mut s), rng(&mut s), rng(&mut s)),
+                DVec3::new(2.0 + rng(&mut s), rng(&mut s), rng(&mut s)),
+                DVec3::new(rng(&mut s), 2.0 + rng(&mut s), rng(&mut s)),
+            ];
+            let rest = 1.0 + 0.5 * rng(&mut s);
+            let (g, h) = fd_check(x, |x| triangle(x, rest));
+            assert!(g < 1e-6 && h < 1e-6, "triangle FD errors {g:e} {h:e}");
+            let (a, ga) = area_gradient(&x);
+            let (_, g2, _) = triangle(&x, rest);
+            for k in 0..3 {
+                assert!((ga[k] * (2.0 * (a - rest) / rest) - g2[k]).length() < 1e-14);
+            }
+        }
+    }
+
+    #[test]
+    fn projected_edge_hessian_is_positive_semidefinite() {
+        let (_, _, h) = edge(DVec3::ZERO, DVec3::new(0.5, 0.0, 0.0), 1.0, true);
+        let m = nalgebra::SMatrix::<f64, 6, 6>::from_column_slice(&h);
+        let ev = m.symmetric_eigenvalues();
+        assert!(ev.iter().all(|&l| l > -1e-12), "{ev}");
+        let (_, _, h) = edge(DVec3::ZERO, DVec3::new(0.5, 0.0, 0.0), 1.0, false);
+        let m = nalgebra::SMatrix::<f64, 6, 6>::from_column_slice(&h);
+        assert!(m.symmetric_eigenvalues().iter().any(|&l| l < -0.1), "a compressed edge is indefinite");
+    }
+}

@@ -1,0 +1,243 @@
+//! Symbolic pattern once, numeric assembly many times.
+//!
+//! The matrix is `3m × 3m` over the `m` free blocks of a [`DofMap`], stored in full (both triangles)
+//! in faer's compressed sparse column format. Each block column `j` holds the sorted row blocks `R_j`;
+//! its three scalar columns share that row pattern, so the entry `(3i + r, 3j + c)` of block `(i, j)`
+//! sits at `base(i, j) + c · 3|R_j| + r`. Every element stores, for each of its `3k` local columns and
+//! each of its `k` vertices, the offset of the three contiguous values it adds to — computed at
+//! construction — so numeric assembly is a sequential walk over the element block with no searching.
+
+use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
+
+use super::{DofMap, LinalgError};
+use crate::energy::{DiscreteShell, HessianMode};
+use glam::DVec3;
+
+const SKIP: u32 = u32::MAX;
+
+/// A sparse symmetric block matrix with a fixed pattern and per-element value slots.
+#[derive(Debug, Clone)]
+pub struct BlockAssembler {
+    matrix: SparseColMat<usize, f64>,
+    /// Per element, in local column-major order `t = (3q + c)·k + p`: offset of rows `3p..3p+3` of
+    /// local column `3q + c` in the value array, or `SKIP`.
+    offsets: Vec<u32>,
+    element_start: Vec<usize>,
+    diagonal: Vec<usize>,
+}
+
+impl BlockAssembler {
+    /// Build the pattern of `stencils` (the vertex lists of the elements, in element order) restricted
+    /// to the free vertices of `dofs`; pairs involving a removed vertex are dropped. Every free vertex
+    /// gets its diagonal block even if no element touches it.
+    pub fn new<'a>(dofs: &DofMap, stencils: impl IntoIterator<Item = &'a [usize]>) -> Result<Self, LinalgError> {
+        let stencils: Vec<&[usize]> = stencils.into_iter().collect();
+        let m = dofs.free_count();
+        let mut rows: Vec<Vec<u32>> = (0..m).map(|j| vec![j as u32]).collect();
+        for s in &stencils {
+            for &v in s.iter() {
+                if v >= dofs.vertex_count() {
+                    return Err(LinalgError::BadStencil { vertex: v, count: dofs.vertex_count() });
+                }
+            }
+            for &vj in s.iter() {
+                let Some(j) = dofs.block(vj) else { continue };
+                rows[j].extend(s.iter().filter_map(|&vi| dofs.block(vi)).map(|i| i as u32));
+            }
+        }
+        let mut col_ptr = Vec::with_capacity(3 * m + 1);
+        let mut bases = Vec::with_capacity(m);
+        let mut nnz = 0usize;
+        col_ptr.push(0);
+        for r in &mut rows {
+            r.sort_unstable();
+            r.dedup();
+            bases.push(nnz);
+            for _ in 0..3 {
+                nnz += 3 * r.len();
+                col_ptr.push(nnz);
+            }
+        }
+        if nnz >= SKIP as usize {
+            return Err(LinalgError::TooLarge(nnz));
+        }
+        let mut row_idx = Vec::with_capacity(nnz);
+        for r in &rows {
+            for _ in 0..3 {
+                row_idx.extend(r.iter().flat_map(|&i| (0..3).map(move |k| 3 * i as usize + k)));
+            }
+        }
+        // Offset of entry (3i, 3j + c).
+        let offset = |i: usize, j: usize, c: usize| -> usize {
+            let pos = rows[j].binary_search(&(i as u32)).unwrap_or_else(|_| unreachable!("pattern contains the pair"));
+            bases[j] + 3 * pos + c * 3 * rows[j].len()
+        };
+        let mut offsets = Vec::new();
+        let mut element_start = Vec::with_capacity(stencils.len() + 1);
+        for s in &stencils {
+            element_start.push(offsets.len());
+            for &vq in s.iter() {
+                for c in 0..3 {
+                    for &vp in s.iter() {
+                        offsets.push(match (dofs.block(vp), dofs.block(vq)) {
+                            (Some(i), Some(j)) => offset(i, j, c) as u32,
+                            _ => SKIP,
+                        });
+                    }
+                }
+            }
+        }
+        element_start.push(offsets.len());
+        let diagonal = (0..m).flat_map(|j| (0..3).map(move |c| (j, c))).map(|(j, c)| offset(j, j, c) + c).collect();
+        let symbolic = SymbolicSparseColMat::new_checked(3 * m, 3 * m, col_ptr, None, row_idx);
+        let matrix = SparseColMat::new(symbolic, vec![0.0; nnz]);
+        Ok(Self { matrix, offsets, element_start, diagonal })
+    }
+
+    /// The pattern of a shell's Hessian over `dofs`.
+    pub fn for_shell(shell: &DiscreteShell, dofs: &DofMap) -> Result<Self, LinalgError> {
+        let mut stencils = Vec::with_capacity(shell.element_count());
+        shell.for_each_stencil(|s| stencils.push(s.to_vec()));
+        Self::new(dofs, stencils.iter().map(Vec::as_slice))
+    }
+
+    /// Number of rows (= columns).
+    pub fn dim(&self) -> usize {
+        self.matrix.nrows()
+    }
+
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        self.matrix.val().len()
+    }
+
+    /// Set every value to zero.
+    pub fn clear(&mut self) {
+        self.matrix.val_mut().fill(0.0);
+    }
+
+    /// Add an element's dense `3k × 3k` block (`k` = its stencil's vertex count) in column-major order
+    /// (for the symmetric blocks of a Hessian this is the same as row-major).
+    pub fn add_element(&mut self, element: usize, block: &[f64]) -> Result<(), LinalgError> {
+        let (Some(&start), Some(&end)) = (self.element_start.get(element), self.element_start.get(element + 1)) else {
+            return Err(LinalgError::BadBlock { element, len: block.len() });
+        };
+        if block.len() != 3 * (end - start) {
+            return Err(LinalgError::BadBlock { element, len: block.len() });
+        }
+        let vals = self.matrix.val_mut();
+        for (&off, src) in self.offsets[start..end].iter().zip(block.chunks_exact(3)) {
+            if off == SKIP {
+                continue;
+            }
+            let off = off as usize;
+            if let Some(dst) = vals.get_mut(off..off + 3) {
+                dst[0] += src[0];
+                dst[1] += src[1];
+                dst[2] += src[2];
+            }
+        }
+        Ok(())
+    }
+
+    /// Overwrite the values with the shell's Hessian at positions `x` (a full-mesh position vector).
+    pub fn assemble_shell(&mut self, shell: &DiscreteShell, x: &[DVec3], mode: HessianMode) {
+        self.clear();
+        let mut bad = None;
+        shell.element_hessians(x, mode, |e, _, h| {
+            if let Err(err) = self.add_element(e, h) {
+                bad.get_or_insert(err);
+            }
+        });
+        debug_assert!(bad.is_none(), "assembler built for a different shell: {bad:?}");
+    }
+
+    /// Add `d[k]` to the `k`-th diagonal entry (e.g. a lumped mass matrix scaled by `1/h²`).
+    pub fn add_diagonal(&mut self, d: &[f64]) {
+        let vals = self.matrix.val_mut();
+        for (&i, &v) in self.diagonal.iter().zip(d) {
+            vals[i] += v;
+        }
+    }
+
+    /// Add `scale ×` values of another matrix with the same pattern (e.g. a stored rest stiffness).
+    pub fn add_scaled(&mut self, values: &[f64], scale: f64) {
+        self.matrix.val_mut().iter_mut().zip(values).for_each(|(a, b)| *a += scale * b);
+    }
+
+    /// The values (in the pattern's order).
+    pub fn values(&self) -> &[f64] {
+        self.matrix.val()
+    }
+
+    /// The assembled matrix.
+    pub fn matrix(&self) -> SparseColMatRef<'_, usize, f64> {
+        self.matrix.as_ref()
+    }
+
+    /// `out = A v` for the current values, or for `values` in this pattern if given.
+    pub fn multiply(&self, values: Option<&[f64]>, v: &[f64], out: &mut [f64]) {
+        let vals = values.unwrap_or(self.matrix.val());
+        let sym = self.matrix.symbolic();
+        let (col_ptr, row_idx) = (sym.col_ptr(), sym.row_idx());
+        out.fill(0.0);
+        for (j, &vj) in v.iter().enumerate() {
+            for k in col_ptr[j]..col_ptr[j + 1] {
+                out[row_idx[k]] += vals[k] * vj;
+            }
+        }
+    }
+
+    /// The matrix as a dense row-major array (tests and small problems only).
+    pub fn to_dense(&self) -> Vec<Vec<f64>> {
+        let n = self.dim();
+        let mut d = vec![vec![0.0; n]; n];
+        let sym = self.matrix.symbolic();
+        for j in 0..n {
+            for k in sym.col_ptr()[j]..sym.col_ptr()[j + 1] {
+                let row = &mut d[sym.row_idx()[k]];
+                row[j] += self.matrix.val()[k];
+            }
+        }
+        d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scatters_blocks_into_the_right_entries_and_skips_removed_vertices() {
+        // Two "edges" 0-1 and 1-2 on three vertices; vertex 2 removed.
+        let dofs = DofMap::without(&[false, false, true]);
+        let mut a = BlockAssembler::new(&dofs, [&[0usize, 1][..], &[1, 2][..]]).unwrap();
+        assert_eq!(a.dim(), 6);
+        assert_eq!(a.nnz(), 36);
+        let block: Vec<f64> = (0..36).map(|i| i as f64).collect();
+        a.add_element(0, &block).unwrap();
+        a.add_element(1, &block).unwrap();
+        let d = a.to_dense();
+        for i in 0..6 {
+            for j in 0..6 {
+                // Element 1 maps its vertex 1 (local 0) to block 1 and drops local vertex 1.
+                // Blocks are column-major: entry (i, j) is block[j * 6 + i].
+                let extra = if i >= 3 && j >= 3 { block[(j - 3) * 6 + (i - 3)] } else { 0.0 };
+                assert_eq!(d[i][j], block[j * 6 + i] + extra, "entry ({i}, {j})");
+            }
+        }
+        a.add_diagonal(&[1.0; 6]);
+        assert_eq!(a.to_dense()[4][4], block[4 * 6 + 4] + block[7] + 1.0);
+        assert_eq!(a.to_dense()[3][4], block[4 * 6 + 3] + block[6]);
+        assert!(a.add_element(0, &block[..9]).is_err());
+        assert!(a.add_element(5, &block).is_err());
+        assert!(BlockAssembler::new(&dofs, [&[0usize, 7][..]]).is_err());
+        let v = [1.0, 0.0, 0.0, 0.0, 0.0, 2.0];
+        let mut out = [0.0; 6];
+        a.multiply(None, &v, &mut out);
+        let dense = a.to_dense();
+        for i in 0..6 {
+            assert_eq!(out[i], dense[i][0] + 2.0 * dense[i][5]);
+        }
+    }
+}
