@@ -1,5 +1,6 @@
 //! Subcommands. Each parses nothing itself: clap hands it typed arguments.
 
+mod modes;
 mod render;
 mod scenes;
 mod sim;
@@ -24,6 +25,8 @@ enum Command {
     View(view::ViewArgs),
     /// List the built-in scenes and the registered methods.
     Scenes,
+    /// Modal analysis of a shell scene: eigenvalues, frequencies, residuals, precompute time.
+    Modes(modes::ModesArgs),
     /// Run a scene for some frames and save a picture (PNG), without a window.
     Render(render::RenderArgs),
     /// Run a scene headless and report timing, energy and the final bounding box.
@@ -61,6 +64,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command.unwrap_or_else(|| Command::View(view::ViewArgs::default())) {
         Command::View(args) => view::run(&args),
         Command::Scenes => scenes::run(),
+        Command::Modes(args) => modes::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Sim(args) => sim::run(&args),
     }

@@ -13,7 +13,7 @@ use glam::DVec3;
 use super::basis::ModalBasis;
 use super::compute::{ModalAnalysis, ModalProblem, PrecomputeTimings};
 
-const MAGIC: &[u8; 8] = b"SWMODES2";
+const MAGIC: &[u8; 8] = b"SWMODES3";
 
 /// FNV-1a, 64 bit: stable across builds and platforms (unlike `std`'s hasher).
 fn fnv(bytes: impl IntoIterator<Item = u8>, mut h: u64) -> u64 {
@@ -55,13 +55,14 @@ pub fn load(p: &ModalProblem<'_>) -> Option<ModalAnalysis> {
     let words: Vec<f64> = rest.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8]))).collect();
     let n = p.mesh.vertex_count();
     let (m, rigid, solves) = (*words.first()? as usize, *words.get(1)? as usize, *words.get(2)? as usize);
-    if m != p.modes || words.len() != 6 + 2 * m + 3 * n * m || rest.len() % 8 != 0 {
+    if m != p.modes || words.len() != 7 + 2 * m + 3 * n * m || rest.len() % 8 != 0 {
         return None;
     }
     let timings = PrecomputeTimings { assembly: words[3], factorisation: words[4], eigen: words[5] };
-    let values = words[6..6 + m].to_vec();
-    let residuals = words[6 + m..6 + 2 * m].to_vec();
-    let shapes: Vec<Vec<DVec3>> = words[6 + 2 * m..]
+    let lambda_max = words[6];
+    let values = words[7..7 + m].to_vec();
+    let residuals = words[7 + m..7 + 2 * m].to_vec();
+    let shapes: Vec<Vec<DVec3>> = words[7 + 2 * m..]
         .chunks_exact(3 * n)
         .map(|s| s.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])).collect())
         .collect();
@@ -69,7 +70,7 @@ pub fn load(p: &ModalProblem<'_>) -> Option<ModalAnalysis> {
         return None;
     }
     let basis = ModalBasis::new(p.mesh, values, &shapes);
-    Some(ModalAnalysis { basis, residuals, rigid_modes: rigid, timings, solves })
+    Some(ModalAnalysis { basis, residuals, lambda_max, rigid_modes: rigid, timings, solves })
 }
 
 /// Store an analysis (best effort: a cache that cannot be written is silently skipped).
@@ -78,7 +79,7 @@ pub fn store(p: &ModalProblem<'_>, a: &ModalAnalysis) {
     let n = p.mesh.vertex_count();
     let m = a.basis.modes();
     let mut words = vec![m as f64, a.rigid_modes as f64, a.solves as f64];
-    words.extend([a.timings.assembly, a.timings.factorisation, a.timings.eigen]);
+    words.extend([a.timings.assembly, a.timings.factorisation, a.timings.eigen, a.lambda_max]);
     words.extend(&a.basis.eigenvalues);
     words.extend(&a.residuals);
     for j in 0..m {

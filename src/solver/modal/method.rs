@@ -11,9 +11,9 @@ use std::time::Instant;
 
 use glam::DVec3;
 
+use super::cache;
 use super::compute::{ModalAnalysis, ModalProblem, analyse};
 use super::dynamics::{ModalDynamics, ModalParams};
-use super::cache;
 use crate::energy::ShellStiffness;
 use crate::mesh::TriMesh;
 use crate::scene::Setup;
@@ -34,21 +34,47 @@ pub const MWTS: Method = Method {
     build: |setup| Ok(Box::new(ModalSolver::new(setup, true)?)),
 };
 
-const fn spec(name: &'static str, label: &'static str, unit: &'static str, help: &'static str, min: f64, max: f64) -> ParamSpec {
+const fn spec(
+    name: &'static str,
+    label: &'static str,
+    unit: &'static str,
+    help: &'static str,
+    min: f64,
+    max: f64,
+) -> ParamSpec {
     ParamSpec { name, label, unit, help, min, max, log_scale: false, integer: false }
 }
 
 const PARAMS: [ParamSpec; 10] = [
-    ParamSpec { log_scale: true, ..spec("k_area", "k_A (area)", "N/m", "Area (stretch) stiffness of the shell.", 0.0, 1e9) },
-    ParamSpec { log_scale: true, ..spec("k_length", "k_L (length)", "N/m", "Edge-length (shear) stiffness.", 0.0, 1e9) },
+    ParamSpec {
+        log_scale: true,
+        ..spec("k_area", "k_A (area)", "N/m", "Area (stretch) stiffness of the shell.", 0.0, 1e9)
+    },
+    ParamSpec {
+        log_scale: true,
+        ..spec("k_length", "k_L (length)", "N/m", "Edge-length (shear) stiffness.", 0.0, 1e9)
+    },
     ParamSpec { log_scale: true, ..spec("k_bend", "k_B (bending)", "N·m", "Bending (hinge) stiffness.", 1e-9, 1e6) },
     ParamSpec { log_scale: true, ..spec("density", "density", "kg/m²", "Surface density (lumped mass).", 1e-6, 1e4) },
     spec("gravity", "gravity y", "m/s²", "Vertical gravity acceleration (negative is down).", -1000.0, 1000.0),
     spec("rayleigh_alpha", "Rayleigh α", "1/s", "Mass-proportional damping C = αM + βK.", 0.0, 1000.0),
     spec("rayleigh_beta", "Rayleigh β", "s", "Stiffness-proportional damping C = αM + βK.", 0.0, 10.0),
-    ParamSpec { integer: true, ..spec("modes", "modes", "", "Number of vibration modes (recomputed in the background).", 1.0, 256.0) },
+    ParamSpec {
+        integer: true,
+        ..spec("modes", "modes", "", "Number of vibration modes (recomputed in the background).", 1.0, 256.0)
+    },
     spec("step", "time step", "s", "Fixed step of the modal integrator.", 1e-5, 0.1),
-    ParamSpec { log_scale: true, ..spec("constraint_damping", "drag damping", "", "Relative Tikhonov damping of over-determined drags.", 1e-12, 1.0) },
+    ParamSpec {
+        log_scale: true,
+        ..spec(
+            "constraint_damping",
+            "drag damping",
+            "",
+            "Relative Tikhonov damping of over-determined drags.",
+            1e-12,
+            1.0,
+        )
+    },
 ];
 
 /// A basis being recomputed in the background.
@@ -201,7 +227,13 @@ impl Solver for ModalSolver {
         let energy = self.dynamics.energy();
         let limit = 1e12 * (1.0 + self.analysis.basis.eigenvalues.last().copied().unwrap_or(1.0));
         check_finite(self.steps, time, self.dynamics.positions(), energy, limit)?;
-        Ok(StepStats { wall_seconds: start.elapsed().as_secs_f64(), sim_time: time, energy, residual: 0.0, iterations: 0 })
+        Ok(StepStats {
+            wall_seconds: start.elapsed().as_secs_f64(),
+            sim_time: time,
+            energy,
+            residual: 0.0,
+            iterations: 0,
+        })
     }
 
     fn positions(&self) -> &[DVec3] {
