@@ -164,10 +164,7 @@ mod tests {
         ));
         let mut collinear = square(0.0);
         collinear[3] = DVec3::new(2.0, 2.0, 0.0); // on the line through 0 and 2
-        assert!(matches!(
-            TriMesh::new(collinear, SQ.to_vec()),
-            Err(MeshError::DegenerateTriangle { triangle: 1, .. })
-        ));
+        assert!(matches!(TriMesh::new(collinear, SQ.to_vec()), Err(MeshError::DegenerateTriangle { triangle: 1, .. })));
         let mut extra = square(0.0);
         extra.push(DVec3::ONE);
         assert_eq!(TriMesh::new(extra, SQ.to_vec()), Err(MeshError::UnreferencedVertex { vertex: 4 }));
