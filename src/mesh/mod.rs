@@ -10,3 +10,4 @@ pub use error::MeshError;
 pub use topology::{Edge, Hinge, Topology};
 pub use trimesh::{TriMesh, vertex_normals};
 pub mod generate;
+pub mod obj;

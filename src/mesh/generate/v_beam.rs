@@ -27,7 +27,7 @@ pub fn v_beam(length: f64, width: f64, angle_deg: f64, segments: [usize; 2]) -> 
             reason: format!("must lie in [10, 180] degrees, got {angle_deg}"),
         });
     }
-    if segments[1] % 2 != 0 {
+    if !segments[1].is_multiple_of(2) {
         return Err(MeshError::BadParameter {
             name: "segments",
             reason: format!("cells across must be even so the crease is a vertex row, got {}", segments[1]),
