@@ -10,5 +10,4 @@ pub use error::MeshError;
 pub use topology::{Edge, Hinge, Topology};
 pub use trimesh::{TriMesh, vertex_normals};
 pub mod generate;
-#[path = "obj_pending.rs"]
 pub mod obj;

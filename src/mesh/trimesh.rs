@@ -103,6 +103,12 @@ impl TriMesh {
         }
         Self::new(positions, self.triangles.clone())
     }
+
+    /// The same connectivity with every rest position mapped through `f` (e.g. to place a generated
+    /// mesh in a scene). Re-validated: a map that collapses a triangle or yields NaN is an error.
+    pub fn transformed(&self, f: impl Fn(DVec3) -> DVec3) -> Result<Self, MeshError> {
+        Self::new(self.positions.iter().map(|&p| f(p)).collect(), self.triangles.clone())
+    }
 }
 
 /// Axis-aligned bounds of a point set (`(+inf, -inf)` when empty).
@@ -183,5 +189,15 @@ mod tests {
         let bent = m.with_positions(square(0.5)).unwrap();
         assert_eq!(bent.topology(), m.topology());
         assert!(m.with_positions(vec![DVec3::ZERO]).is_err());
+    }
+
+    #[test]
+    fn transformed_maps_positions_and_revalidates() {
+        let m = TriMesh::new(square(0.0), SQ.to_vec()).unwrap();
+        let moved = m.transformed(|p| 2.0 * p + DVec3::X).unwrap();
+        assert_eq!(moved.positions()[2], DVec3::new(3.0, 2.0, 0.0));
+        assert_eq!(moved.topology(), m.topology());
+        assert!(matches!(m.transformed(|p| p * DVec3::new(1.0, 0.0, 1.0)), Err(MeshError::DegenerateTriangle { .. })));
+        assert_eq!(m.transformed(|_| DVec3::NAN), Err(MeshError::NonFinite { vertex: 0 }));
     }
 }

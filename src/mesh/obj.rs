@@ -1,0 +1,262 @@
+//! Wavefront OBJ in and out: reading through `tobj`, writing with our own exact, atomic writer.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+
+use super::{MeshError, TriMesh};
+
+/// Read a triangle mesh from an OBJ file.
+///
+/// Polygons are fan-triangulated; points and lines are ignored; all objects and groups are merged into
+/// one mesh (a vertex shared between two objects becomes two vertices, as `tobj` exports each object
+/// separately). Vertices are numbered in order of **first use by a face** (tobj's single-index
+/// layout) and unused `v` lines are dropped, so a file from [`save_obj`] loads back with exactly the
+/// same indices whenever the saved vertices were already in first-use order (see [`first_use_order`]).
+/// Coordinates are read as `f64`, so values written by [`save_obj`] come back bit for bit.
+///
+/// Errors: [`MeshError::Io`] naming the path ("file not found", or the parser's message such as
+/// "position parse error" or "face vertex index out of bounds"); otherwise whatever
+/// [`TriMesh::new`] reports for invalid geometry (e.g. [`MeshError::NonManifoldEdge`]).
+pub fn load_obj(path: &Path) -> Result<TriMesh, MeshError> {
+    let io = |reason: String| MeshError::Io { path: path.to_path_buf(), reason };
+    let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
+    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| match e {
+        tobj::LoadError::OpenFileFailed => match std::fs::metadata(path) {
+            Err(err) if err.kind() == std::io::ErrorKind::NotFound => io("file not found".into()),
+            Err(err) => io(format!("cannot open file: {err}")),
+            Ok(_) => io("cannot open file".into()),
+        },
+        other => io(format!("invalid OBJ: {other}")),
+    })?;
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    for model in &models {
+        let mesh = &model.mesh;
+        let offset = positions.len();
+        positions.extend(mesh.positions.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])));
+        let faces = mesh.indices.chunks_exact(3);
+        if !faces.remainder().is_empty() {
+            return Err(io(format!("object `{}` has an incomplete triangle", model.name)));
+        }
+        triangles.extend(faces.map(|t| [0, 1, 2].map(|k| offset + t[k] as usize)));
+    }
+    TriMesh::new(positions, triangles)
+}
+
+/// Write `positions` and `triangles` as an OBJ file (`v x y z` lines, then 1-based `f a b c` lines).
+///
+/// Coordinates are printed with Rust's shortest round-trip `f64` formatting, so reading them back is
+/// exact. The write is atomic: the data goes to a hidden temporary file in the same directory
+/// (`.<name>.tmp-<pid>`), is flushed and synced, then renamed over `path`; on failure the temporary
+/// file is removed and `path` is untouched.
+///
+/// Errors: [`MeshError::NonFinite`] or [`MeshError::IndexOutOfRange`] for data that would make a
+/// broken file (checked before touching the disk); [`MeshError::Io`] naming the path otherwise.
+pub fn save_obj(path: &Path, positions: &[DVec3], triangles: &[[usize; 3]]) -> Result<(), MeshError> {
+    if let Some(vertex) = positions.iter().position(|p| !p.is_finite()) {
+        return Err(MeshError::NonFinite { vertex });
+    }
+    for (triangle, t) in triangles.iter().enumerate() {
+        if let Some(&index) = t.iter().find(|&&i| i >= positions.len()) {
+            return Err(MeshError::IndexOutOfRange { triangle, index, vertex_count: positions.len() });
+        }
+    }
+    let io = |reason: String| MeshError::Io { path: path.to_path_buf(), reason };
+    let name = path.file_name().ok_or_else(|| io("not a file path".into()))?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let tmp = dir.join(format!(".{}.tmp-{}", name.to_string_lossy(), std::process::id()));
+    let result = write_and_sync(&tmp, positions, triangles)
+        .and_then(|()| std::fs::rename(&tmp, path))
+        .map_err(|e| io(format!("cannot write: {e}")));
+    if result.is_err() {
+        // Best effort: the temporary may not exist if creating it was what failed.
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+fn write_and_sync(tmp: &Path, positions: &[DVec3], triangles: &[[usize; 3]]) -> std::io::Result<()> {
+    let file = File::create(tmp)?;
+    let mut w = BufWriter::new(file);
+    writeln!(w, "# shellwarp: {} vertices, {} triangles", positions.len(), triangles.len())?;
+    for p in positions {
+        writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+    }
+    for t in triangles {
+        writeln!(w, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+    }
+    let file = w.into_inner().map_err(|e| e.into_error())?;
+    file.sync_all()
+}
+
+/// The vertex order [`load_obj`] produces for a file written from `triangles`: `order[new] = old`,
+/// vertices listed by first appearance in the triangle list (unused vertices are left out).
+pub fn first_use_order(vertex_count: usize, triangles: &[[usize; 3]]) -> Vec<usize> {
+    let mut seen = vec![false; vertex_count];
+    let mut order = Vec::with_capacity(vertex_count);
+    for &v in triangles.iter().flatten() {
+        if v < vertex_count && !seen[v] {
+            seen[v] = true;
+            order.push(v);
+        }
+    }
+    order
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::generate::{creature, delaunay_sheet};
+
+    /// A fresh, empty directory for one test.
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("shellwarp-obj-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn round_trip_is_exact() {
+        let dir = scratch("round-trip");
+        let path = dir.join("creature.obj");
+        // Awkward values: many digits, tiny, huge and negative zero all survive.
+        let m = creature(1.7, 12)
+            .unwrap()
+            .transformed(|p| p * std::f64::consts::PI + DVec3::new(1e-300, -0.0, 1e12))
+            .unwrap();
+        save_obj(&path, m.positions(), m.triangles()).unwrap();
+        let back = load_obj(&path).unwrap();
+        // load_obj numbers vertices by first use; map back and compare bit for bit.
+        let order = first_use_order(m.vertex_count(), m.triangles());
+        assert_eq!(order.len(), m.vertex_count());
+        let mut new_of = vec![0; m.vertex_count()];
+        order.iter().enumerate().for_each(|(new, &old)| new_of[old] = new);
+        for (new, &old) in order.iter().enumerate() {
+            assert_eq!(
+                back.positions()[new].to_array().map(f64::to_bits),
+                m.positions()[old].to_array().map(f64::to_bits)
+            );
+        }
+        let remapped: Vec<[usize; 3]> = m.triangles().iter().map(|t| t.map(|v| new_of[v])).collect();
+        assert_eq!(back.triangles(), &remapped[..]);
+        // A mesh already in first-use order round-trips literally.
+        let reordered = TriMesh::new(back.positions().to_vec(), back.triangles().to_vec()).unwrap();
+        save_obj(&path, reordered.positions(), reordered.triangles()).unwrap();
+        assert_eq!(load_obj(&path).unwrap(), reordered);
+        // No temporary left behind; saving again overwrites.
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+        let sheet = delaunay_sheet([1.0, 0.5], 0.2).unwrap();
+        save_obj(&path, sheet.positions(), sheet.triangles()).unwrap();
+        assert_eq!(load_obj(&path).unwrap().triangles().len(), sheet.triangles().len());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn polygons_objects_and_comments_load() {
+        let dir = scratch("polygons");
+        let text = "# a quad and a pentagon, in two objects\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+                    o first\nf 1 2 3 4\no second\nv 2 0 0\nv 3 0 0\nv 3 1 0\nv 2.5 1.5 0\nv 2 1 0\nf 5/1 6 7 8 9\n";
+        let m = load_obj(&write(&dir, "poly.obj", text)).unwrap();
+        assert_eq!(m.vertex_count(), 9);
+        assert_eq!(m.triangles().len(), 2 + 3);
+        assert!((m.triangle_areas().iter().sum::<f64>() - 2.25).abs() < 1e-12);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn missing_file_names_the_path() {
+        let path = std::env::temp_dir().join("shellwarp-definitely-missing/none.obj");
+        match load_obj(&path) {
+            Err(MeshError::Io { path: p, reason }) => {
+                assert_eq!(p, path);
+                assert_eq!(reason, "file not found");
+            }
+            other => panic!("expected Io error, got {other:?}"),
+        }
+        let msg = load_obj(&path).unwrap_err().to_string();
+        assert!(msg.contains("none.obj") && msg.contains("file not found"), "{msg}");
+    }
+
+    #[test]
+    fn malformed_files_give_clear_errors() {
+        let dir = scratch("malformed");
+        let cases = [
+            ("garbage.obj", "v 0 0 0\nv 1 banana 0\nv 0 1 0\nf 1 2 3\n", "position parse error"),
+            ("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", "out of bounds"),
+            ("face.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 two 3\n", "face parse error"),
+        ];
+        for (name, text, expect) in cases {
+            let path = write(&dir, name, text);
+            match load_obj(&path) {
+                Err(MeshError::Io { path: p, reason }) => {
+                    assert_eq!(p, path);
+                    assert!(reason.contains(expect), "{name}: {reason}");
+                }
+                other => panic!("{name}: expected Io error, got {other:?}"),
+            }
+        }
+        // Empty file: no geometry.
+        assert!(matches!(load_obj(&write(&dir, "empty.obj", "")), Err(MeshError::Empty { .. })));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn invalid_geometry_reports_the_validation_error() {
+        let dir = scratch("invalid");
+        // Three triangles on edge 1–2.
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n";
+        assert_eq!(load_obj(&write(&dir, "fan.obj", text)), Err(MeshError::NonManifoldEdge { a: 0, b: 1, count: 3 }));
+        let degenerate = "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n";
+        assert!(matches!(load_obj(&write(&dir, "flat.obj", degenerate)), Err(MeshError::DegenerateTriangle { .. })));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn failed_write_is_an_io_error_and_leaves_nothing() {
+        let dir = scratch("failed-write");
+        let missing = dir.join("no-such-dir");
+        let path = missing.join("out.obj");
+        let m = delaunay_sheet([1.0, 1.0], 0.5).unwrap();
+        match save_obj(&path, m.positions(), m.triangles()) {
+            Err(MeshError::Io { path: p, reason }) => {
+                assert_eq!(p, path);
+                assert!(reason.starts_with("cannot write"), "{reason}");
+            }
+            other => panic!("expected Io error, got {other:?}"),
+        }
+        assert!(!missing.exists());
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "no temporary file left behind");
+        // Rename onto a directory fails after the temporary was written: it must be cleaned up.
+        let blocker = dir.join("blocker.obj");
+        std::fs::create_dir_all(blocker.join("inside")).unwrap();
+        assert!(matches!(save_obj(&blocker, m.positions(), m.triangles()), Err(MeshError::Io { .. })));
+        let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("blocker.obj")]);
+        // Bad data is refused before touching the disk.
+        assert_eq!(save_obj(&dir.join("x.obj"), &[DVec3::NAN], &[]), Err(MeshError::NonFinite { vertex: 0 }));
+        assert!(matches!(
+            save_obj(&dir.join("x.obj"), &[DVec3::ZERO], &[[0, 0, 1]]),
+            Err(MeshError::IndexOutOfRange { .. })
+        ));
+        assert!(!dir.join("x.obj").exists());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn first_use_order_lists_vertices_by_appearance() {
+        assert_eq!(first_use_order(5, &[[3, 1, 4], [1, 0, 3]]), vec![3, 1, 4, 0]);
+    }
+}
