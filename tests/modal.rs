@@ -99,7 +99,7 @@ fn twist_profile(x: &[DVec3], rows: usize, per_row: usize) -> Vec<f64> {
     let mut prev = 0.0;
     for i in 0..rows {
         let d = x[i * per_row + per_row - 1] - x[i * per_row];
-        let mut a = d.y.atan2(d.z) * -1.0;
+        let mut a = (-d.y).atan2(d.z);
         while a - prev > std::f64::consts::PI {
             a -= std::f64::consts::TAU;
         }

@@ -19,7 +19,7 @@ use glam::{DMat3, DVec3};
 use nalgebra::{DMatrix, DVector};
 
 use super::basis::ModalBasis;
-use super::warp::{rotation, warp_operator};
+use super::warp::{coefficients, rotate_back, warp, warp_operator};
 use crate::solver::{DragKind, DragSet};
 
 /// Time-stepping parameters of the modal oscillators.
@@ -51,6 +51,8 @@ pub struct ModalDynamics {
     forces: Vec<DVec3>,
     /// Current rotation vector of each vertex (`Ψ_i q`).
     rotations: Vec<DVec3>,
+    /// Warp coefficients of each vertex's current rotation ([`coefficients`]).
+    coefficients: Vec<[f64; 3]>,
     /// Current positions.
     positions: Vec<DVec3>,
 }
@@ -69,6 +71,7 @@ impl ModalDynamics {
             rest,
             forces,
             rotations: vec![DVec3::ZERO; n],
+            coefficients: vec![coefficients(0.0); n],
         }
     }
 
@@ -113,7 +116,7 @@ impl ModalDynamics {
             if *f == DVec3::ZERO {
                 continue;
             }
-            let local = if self.warp { rotation(self.rotations[i]).transpose() * *f } else { *f };
+            let local = if self.warp { rotate_back(self.rotations[i], self.coefficients[i], *f) } else { *f };
             let (phi, _) = self.basis.rows(i);
             for a in 0..3 {
                 let row = &phi[a * m..(a + 1) * m];
@@ -195,12 +198,18 @@ impl ModalDynamics {
 
     /// Recompute rotations and positions from `q`.
     fn update_positions(&mut self) {
+        let m = self.basis.modes();
+        let q = &self.q;
+        let dot = |row: &[f64]| row.iter().zip(q).map(|(a, b)| a * b).sum::<f64>();
         for i in 0..self.rest.len() {
-            let lin = self.basis.displacement(i, &self.q);
+            let (phi, psi) = self.basis.rows(i);
+            let lin = DVec3::new(dot(&phi[..m]), dot(&phi[m..2 * m]), dot(&phi[2 * m..]));
             let u = if self.warp {
-                let w = self.basis.rotation(i, &self.q);
+                let w = DVec3::new(dot(&psi[..m]), dot(&psi[m..2 * m]), dot(&psi[2 * m..]));
+                let k = coefficients(w.length_squared());
                 self.rotations[i] = w;
-                warp_operator(w) * lin
+                self.coefficients[i] = k;
+                warp(w, k, lin)
             } else {
                 lin
             };

@@ -11,39 +11,77 @@ use glam::{DMat3, DVec3};
 
 use super::rotation::cross_matrix;
 
-/// Below this angle the coefficient series are used (their truncation error there is < 1e-17).
-const SERIES_BELOW: f64 = 0.1;
+/// Below this angle (`θ < π`) the coefficients are evaluated as polynomials in `θ²` (no square root,
+/// no trigonometry: this is the per-vertex hot path of every MWTS step); above it in closed form.
+const SERIES_BELOW: f64 = std::f64::consts::PI;
 
-/// `(sinθ/θ, (1 − cosθ)/θ², (θ − sinθ)/θ³)` for `θ² = theta2`.
-fn coefficients(theta2: f64) -> (f64, f64, f64) {
+/// Terms of the series: at `θ = π` the last one is below 1e-19.
+const TERMS: usize = 16;
+
+/// `(−1)^k / (2k + offset)!` for `k < TERMS`.
+const fn taylor(offset: u32) -> [f64; TERMS] {
+    let mut out = [0.0; TERMS];
+    let mut k = 0;
+    while k < TERMS {
+        let mut f = 1.0;
+        let mut i = 2;
+        while i <= 2 * k as u32 + offset {
+            f *= i as f64;
+            i += 1;
+        }
+        out[k] = if k % 2 == 0 { 1.0 / f } else { -1.0 / f };
+        k += 1;
+    }
+    out
+}
+
+const SIN_OVER: [f64; TERMS] = taylor(1);
+const ONE_MINUS_COS_OVER: [f64; TERMS] = taylor(2);
+const THETA_MINUS_SIN_OVER: [f64; TERMS] = taylor(3);
+
+fn horner(c: &[f64; TERMS], t: f64) -> f64 {
+    c.iter().rev().fold(0.0, |acc, &ck| acc * t + ck)
+}
+
+/// `[sinθ/θ, (1 − cosθ)/θ², (θ − sinθ)/θ³]` for `θ² = theta2`.
+pub fn coefficients(theta2: f64) -> [f64; 3] {
     if theta2 < SERIES_BELOW * SERIES_BELOW { series(theta2) } else { closed(theta2) }
 }
 
-/// Taylor series of the coefficients in `t = θ²`, to `θ⁸`.
-fn series(t: f64) -> (f64, f64, f64) {
-    let a = 1.0 - t / 6.0 * (1.0 - t / 20.0 * (1.0 - t / 42.0 * (1.0 - t / 72.0)));
-    let b = 0.5 * (1.0 - t / 12.0 * (1.0 - t / 30.0 * (1.0 - t / 56.0 * (1.0 - t / 90.0))));
-    let c = (1.0 - t / 20.0 * (1.0 - t / 42.0 * (1.0 - t / 72.0 * (1.0 - t / 110.0)))) / 6.0;
-    (a, b, c)
+/// The Taylor series of the coefficients in `t = θ²`.
+fn series(t: f64) -> [f64; 3] {
+    [horner(&SIN_OVER, t), horner(&ONE_MINUS_COS_OVER, t), horner(&THETA_MINUS_SIN_OVER, t)]
 }
 
 /// The coefficients in closed form (accurate away from `θ = 0`).
-fn closed(theta2: f64) -> (f64, f64, f64) {
+fn closed(theta2: f64) -> [f64; 3] {
     let th = theta2.sqrt();
     let (s, half) = (th.sin(), (0.5 * th).sin());
-    (s / th, 2.0 * half * half / theta2, (th - s) / (theta2 * th))
+    [s / th, 2.0 * half * half / theta2, (th - s) / (theta2 * th)]
+}
+
+/// `Rᵀ f` for `R = exp([w]×)` given `coefficients(|w|²)`: `f − a (w × f) + b (w × (w × f))`.
+pub fn rotate_back(w: DVec3, [a, b, _]: [f64; 3], f: DVec3) -> DVec3 {
+    let wf = w.cross(f);
+    f - wf * a + w.cross(wf) * b
+}
+
+/// `(∫₀¹ exp(s[w]×) ds) v` given `coefficients(|w|²)`: `v + b (w × v) + c (w × (w × v))`.
+pub fn warp(w: DVec3, [_, b, c]: [f64; 3], v: DVec3) -> DVec3 {
+    let wv = w.cross(v);
+    v + wv * b + w.cross(wv) * c
 }
 
 /// The rotation `exp([w]×)` (Rodrigues).
 pub fn rotation(w: DVec3) -> DMat3 {
-    let (a, b, _) = coefficients(w.length_squared());
+    let [a, b, _] = coefficients(w.length_squared());
     let k = cross_matrix(w);
     DMat3::IDENTITY + k * a + k * k * b
 }
 
 /// The warping operator `∫₀¹ exp(s[w]×) ds`, applied to the linear modal displacement.
 pub fn warp_operator(w: DVec3) -> DMat3 {
-    let (_, b, c) = coefficients(w.length_squared());
+    let [_, b, c] = coefficients(w.length_squared());
     let k = cross_matrix(w);
     DMat3::IDENTITY + k * b + k * k * c
 }
@@ -72,12 +110,24 @@ mod tests {
     #[test]
     fn series_and_closed_form_agree_at_the_switch() {
         // No jump: both branches give the same coefficients where they meet (and a bit beyond).
-        for theta in [0.5 * SERIES_BELOW, SERIES_BELOW, 1.5 * SERIES_BELOW] {
+        for theta in [0.3, 1.0, 0.5 * SERIES_BELOW, SERIES_BELOW, 1.1 * SERIES_BELOW] {
             let (s, c) = (series(theta * theta), closed(theta * theta));
-            assert!((s.0 - c.0).abs() < 1e-15 && (s.1 - c.1).abs() < 1e-15, "θ = {theta}: {s:?} vs {c:?}");
-            // The closed form of (θ − sinθ)/θ³ loses ~6ε/θ² to cancellation: the reason for the series.
-            assert!((s.2 - c.2).abs() < 1e-12 * s.2, "θ = {theta}: {s:?} vs {c:?}");
+            for k in 0..3 {
+                assert!((s[k] - c[k]).abs() < 1e-15, "θ = {theta}, coefficient {k}: {s:?} vs {c:?}");
+            }
         }
+        // Near zero the closed form of (θ − sinθ)/θ³ loses ~6ε/θ² to cancellation; the series does not.
+        let tiny = 1e-4;
+        assert!((series(tiny * tiny)[2] - (1.0 / 6.0 - tiny * tiny / 120.0)).abs() < 1e-17);
+        assert_eq!(coefficients(0.0), [1.0, 0.5, 1.0 / 6.0]);
+    }
+
+    #[test]
+    fn vector_forms_match_the_matrices() {
+        let (w, f) = (DVec3::new(0.7, -2.1, 1.3), DVec3::new(0.2, 0.9, -0.4));
+        let k = coefficients(w.length_squared());
+        assert!((rotate_back(w, k, f) - rotation(w).transpose() * f).length() < 1e-14);
+        assert!((warp(w, k, f) - warp_operator(w) * f).length() < 1e-14);
     }
 
     #[test]
