@@ -43,11 +43,11 @@ fn position_drags_hold_vertices_and_release_them() {
     use glam::DVec3;
     use shellwarp::solver::{Drag, DragKind};
     for method in ["ds-implicit", "ds-static"] {
-        let setup = scene::load("cantilever", &[format!("solver.method={method}"), "solver.iterations=200".into()]).unwrap();
+        let setup =
+            scene::load("cantilever", &[format!("solver.method={method}"), "solver.iterations=200".into()]).unwrap();
         let mut s = build(&setup).unwrap();
-        let tip = (0..setup.mesh.vertex_count()).max_by(|&a, &b| {
-            setup.mesh.positions()[a].x.total_cmp(&setup.mesh.positions()[b].x)
-        });
+        let tip = (0..setup.mesh.vertex_count())
+            .max_by(|&a, &b| setup.mesh.positions()[a].x.total_cmp(&setup.mesh.positions()[b].x));
         let tip = tip.unwrap();
         let target = setup.mesh.positions()[tip] + DVec3::new(-0.1, 0.2, 0.0);
         let id = s.drags_mut().add(Drag { vertex: tip, kind: DragKind::Position(target) }).unwrap();
