@@ -153,6 +153,7 @@ fn energy_and_gradient_vanish_at_rest_and_are_invariant_under_rigid_motion() {
     let y: Vec<DVec3> = x.iter().map(|&p| q * p + t).collect();
     let (wx, wy) = (shell.energy(&x), shell.energy(&y));
     assert!(wx > 1e-3, "the deformed state stores energy");
+    eprintln!("rigid motion: relative change of W {:.1e}", ((wx - wy) / wx).abs());
     assert!(((wx - wy) / wx).abs() < 1e-10, "W changed under rigid motion: {wx} vs {wy}");
     // The gradient rotates with the mesh.
     let mut gy = vec![DVec3::ZERO; y.len()];
@@ -181,6 +182,12 @@ fn rest_hessian_of_a_closed_mesh_has_exactly_six_zero_eigenvalues() {
     let mut sorted: Vec<f64> = ev.iter().copied().collect();
     sorted.sort_by(f64::total_cmp);
     let zeros = sorted.iter().filter(|l| l.abs() < 1e-9 * max).count();
+    eprintln!(
+        "closed cube-sphere ({} DOFs): |λ₁..λ₆|/λmax ≤ {:.1e}, λ₇/λmax = {:.2e}",
+        n,
+        sorted[..6].iter().map(|l| l.abs()).fold(0.0, f64::max) / max,
+        sorted[6] / max
+    );
     assert_eq!(zeros, 6, "eigenvalues {:?}", &sorted[..10]);
     assert!(sorted[0] > -1e-9 * max, "the rest Hessian is positive semidefinite");
     assert!(sorted[6] > 1e-5 * max, "the 7th eigenvalue {} is clearly non-zero", sorted[6]);
