@@ -6,8 +6,10 @@
 //! - `E_B = Σ_e (θ_e − θ̄_e)² · 3|ē|²/(Ā₁ + Ā₂)` over interior edges, with the signed atan2 angle of
 //!   [`super::hinge`] and `θ − θ̄` wrapped to `[−π, π)` so curved rest shapes (the V-beam) are safe.
 //!
-//! Element order (used by [`DiscreteShell::for_each_stencil`] and
+//! Element numbering (used by [`DiscreteShell::for_each_stencil`] and
 //! [`DiscreteShell::element_hessians`]): all triangles, then all edges, then all hinges.
+//! [`DiscreteShell::element_hessians`] *visits* them interleaved, sorted by their smallest vertex, so
+//! consecutive elements touch neighbouring matrix columns and assembly stays in cache.
 
 use glam::DVec3;
 use nalgebra::SMatrix;
@@ -90,6 +92,8 @@ pub struct DiscreteShell {
     tris: Vec<Tri>,
     edges: Vec<EdgeElem>,
     hinges: Vec<HingeElem>,
+    /// Element numbers in visiting order (sorted by smallest vertex).
+    visit: Vec<u32>,
 }
 
 impl DiscreteShell {
@@ -121,7 +125,16 @@ impl DiscreteShell {
                 HingeElem { v: h.v, weight: 3.0 * l * l / (areas[h.faces[0]] + areas[h.faces[1]]), rest_angle }
             })
             .collect();
-        Ok(Self { vertex_count: rest.vertex_count(), stiffness, tris, edges, hinges })
+        let mut shell = Self { vertex_count: rest.vertex_count(), stiffness, tris, edges, hinges, visit: Vec::new() };
+        let mut keyed = Vec::with_capacity(shell.element_count());
+        let mut e = 0u32;
+        shell.for_each_stencil(|s| {
+            keyed.push((s.iter().copied().min().unwrap_or(0), e));
+            e += 1;
+        });
+        keyed.sort_unstable();
+        shell.visit = keyed.into_iter().map(|(_, e)| e).collect();
+        Ok(shell)
     }
 
     /// Number of vertices the positions must have.
@@ -246,32 +259,34 @@ impl DiscreteShell {
         self.check_len(x);
         let k = self.stiffness;
         let project = mode == HessianMode::Projected;
-        let mut index = 0;
-        for t in &self.tris {
-            let p = t.v.map(|i| x[i]);
-            let (_, _, mut h) = triangle(&p, t.rest_area);
-            h.iter_mut().for_each(|v| *v *= k.k_area);
-            if project {
-                project_psd9(&mut h);
+        let (nt, ne) = (self.tris.len(), self.edges.len());
+        let mut h9 = [0.0; 81];
+        let mut h12 = [0.0; 144];
+        for &index in &self.visit {
+            let index = index as usize;
+            if index < nt {
+                let t = &self.tris[index];
+                let p = t.v.map(|i| x[i]);
+                let (_, _, h) = triangle(&p, t.rest_area);
+                h9.iter_mut().zip(&h).for_each(|(d, v)| *d = v * k.k_area);
+                if project {
+                    project_psd9(&mut h9);
+                }
+                sink(index, &t.v, &h9);
+            } else if index < nt + ne {
+                let e = &self.edges[index - nt];
+                let (_, _, mut h) = edge(x[e.v[0]], x[e.v[1]], e.rest_length, project);
+                h.iter_mut().for_each(|v| *v *= k.k_length);
+                sink(index, &e.v, &h);
+            } else {
+                let hg = &self.hinges[index - nt - ne];
+                let p = hg.v.map(|i| x[i]);
+                hinge_hessian(&p, hg.rest_angle, hg.weight * k.k_bend, &mut h12);
+                if project {
+                    project_psd12(&mut h12);
+                }
+                sink(index, &hg.v, &h12);
             }
-            sink(index, &t.v, &h);
-            index += 1;
-        }
-        for e in &self.edges {
-            let (_, _, mut h) = edge(x[e.v[0]], x[e.v[1]], e.rest_length, project);
-            h.iter_mut().for_each(|v| *v *= k.k_length);
-            sink(index, &e.v, &h);
-            index += 1;
-        }
-        let mut h = [0.0; 144];
-        for hg in &self.hinges {
-            let p = hg.v.map(|i| x[i]);
-            hinge_hessian(&p, hg.rest_angle, hg.weight * k.k_bend, &mut h);
-            if project {
-                project_psd12(&mut h);
-            }
-            sink(index, &hg.v, &h);
-            index += 1;
         }
     }
 }

@@ -153,6 +153,7 @@ fn energy_and_gradient_vanish_at_rest_and_are_invariant_under_rigid_motion() {
     let y: Vec<DVec3> = x.iter().map(|&p| q * p + t).collect();
     let (wx, wy) = (shell.energy(&x), shell.energy(&y));
     assert!(wx > 1e-3, "the deformed state stores energy");
+    eprintln!("rigid motion: relative change of W {:.1e}", ((wx - wy) / wx).abs());
     assert!(((wx - wy) / wx).abs() < 1e-10, "W changed under rigid motion: {wx} vs {wy}");
     // The gradient rotates with the mesh.
     let mut gy = vec![DVec3::ZERO; y.len()];
@@ -181,6 +182,12 @@ fn rest_hessian_of_a_closed_mesh_has_exactly_six_zero_eigenvalues() {
     let mut sorted: Vec<f64> = ev.iter().copied().collect();
     sorted.sort_by(f64::total_cmp);
     let zeros = sorted.iter().filter(|l| l.abs() < 1e-9 * max).count();
+    eprintln!(
+        "closed cube-sphere ({} DOFs): |λ₁..λ₆|/λmax ≤ {:.1e}, λ₇/λmax = {:.2e}",
+        n,
+        sorted[..6].iter().map(|l| l.abs()).fold(0.0, f64::max) / max,
+        sorted[6] / max
+    );
     assert_eq!(zeros, 6, "eigenvalues {:?}", &sorted[..10]);
     assert!(sorted[0] > -1e-9 * max, "the rest Hessian is positive semidefinite");
     assert!(sorted[6] > 1e-5 * max, "the 7th eigenvalue {} is clearly non-zero", sorted[6]);
@@ -214,4 +221,35 @@ fn bad_stiffness_is_refused() {
     let mut s = DiscreteShell::new(&mesh, K).unwrap();
     assert!(s.set_stiffness(ShellStiffness { k_bend: f64::NAN, ..K }).is_err());
     assert_eq!(s.stiffness(), K);
+}
+
+/// Two triangles on the edge 0 → 1 (along x); the second wing rotated by `fold` about the edge.
+fn folded_pair(fold: f64) -> Vec<DVec3> {
+    let (s, c) = fold.sin_cos();
+    vec![
+        DVec3::new(-0.4, 0.0, 0.0),
+        DVec3::new(0.6, 0.0, 0.0),
+        DVec3::new(0.1, 0.0, -0.8),
+        DVec3::new(0.2, -0.9 * s, 0.9 * c),
+    ]
+}
+
+#[test]
+fn rest_angle_near_pi_is_wrapped_branch_safely() {
+    let tris = vec![[0, 1, 2], [1, 0, 3]];
+    let rest = TriMesh::new(folded_pair(3.0), tris).unwrap();
+    let shell = DiscreteShell::new(&rest, ShellStiffness { k_area: 0.0, k_length: 0.0, k_bend: 1.0 }).unwrap();
+    let rest_angle = shell.rest_angles()[0];
+    assert!((rest_angle.abs() - 3.0).abs() < 1e-12, "{rest_angle}");
+    // Fold on through ±π to the other side: the angle jumps by 2π but θ − θ̄ must not.
+    let x = folded_pair(3.3);
+    let theta = super::hinge::angle(&x.clone().try_into().unwrap());
+    assert!((theta - rest_angle).abs() > 5.0, "the raw angle wrapped: θ = {theta}, θ̄ = {rest_angle}");
+    let h = rest.topology().hinges[0];
+    let areas = rest.triangle_areas();
+    let weight = 3.0 * (x[1] - x[0]).length_squared() / (areas[h.faces[0]] + areas[h.faces[1]]);
+    let expected = weight * 0.3f64.powi(2);
+    assert!((shell.energy(&x) - expected).abs() < 1e-12 * expected, "{} vs {expected}", shell.energy(&x));
+    let (g, hs) = fd_errors(&shell, &x);
+    assert!(g < 1e-6 && hs < 1e-6, "FD errors across ±π: {g:e} {hs:e}");
 }

@@ -3,9 +3,13 @@
 //! The matrix is `3m × 3m` over the `m` free blocks of a [`DofMap`], stored in full (both triangles)
 //! in faer's compressed sparse column format. Each block column `j` holds the sorted row blocks `R_j`;
 //! its three scalar columns share that row pattern, so the entry `(3i + r, 3j + c)` of block `(i, j)`
-//! sits at `base(i, j) + c · 3|R_j| + r`. Every element stores, for each of its `3k` local columns and
-//! each of its `k` vertices, the offset of the three contiguous values it adds to — computed at
-//! construction — so numeric assembly is a sequential walk over the element block with no searching.
+//! sits at `base_j + c · 3|R_j| + 3·pos(i) + r`.
+//!
+//! Elements are first accumulated in a block-contiguous scratch array (block `(i, j)` column-major at
+//! `base_j + 9·pos(i)`: one or two cache lines per block instead of three), then each block column is
+//! transposed into faer's layout in one cache-friendly pass. Every element stores, for each of its `3k`
+//! local columns and each of its `k` vertices, the scratch offset of the three contiguous values it adds
+//! to — computed at construction — so numeric assembly is a sequential walk with no searching.
 
 use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
 
@@ -23,6 +27,10 @@ pub struct BlockAssembler {
     /// local column `3q + c` in the value array, or `SKIP`.
     offsets: Vec<u32>,
     element_start: Vec<usize>,
+    /// Block-contiguous accumulation buffer (same length as the values).
+    scratch: Vec<f64>,
+    /// `(base_j, |R_j|)` of every block column.
+    groups: Vec<(usize, usize)>,
     diagonal: Vec<usize>,
 }
 
@@ -67,11 +75,12 @@ impl BlockAssembler {
                 row_idx.extend(r.iter().flat_map(|&i| (0..3).map(move |k| 3 * i as usize + k)));
             }
         }
-        // Offset of entry (3i, 3j + c).
-        let offset = |i: usize, j: usize, c: usize| -> usize {
-            let pos = rows[j].binary_search(&(i as u32)).unwrap_or_else(|_| unreachable!("pattern contains the pair"));
-            bases[j] + 3 * pos + c * 3 * rows[j].len()
+        let position = |i: usize, j: usize| {
+            rows[j].binary_search(&(i as u32)).unwrap_or_else(|_| unreachable!("pattern has the pair"))
         };
+        // Offset of entry (3i, 3j + c) in faer's layout, and in the block-contiguous scratch.
+        let offset = |i: usize, j: usize, c: usize| -> usize { bases[j] + 3 * position(i, j) + c * 3 * rows[j].len() };
+        let scratch_offset = |i: usize, j: usize, c: usize| -> usize { bases[j] + 9 * position(i, j) + 3 * c };
         let mut offsets = Vec::new();
         let mut element_start = Vec::with_capacity(stencils.len() + 1);
         for s in &stencils {
@@ -80,7 +89,7 @@ impl BlockAssembler {
                 for c in 0..3 {
                     for &vp in s.iter() {
                         offsets.push(match (dofs.block(vp), dofs.block(vq)) {
-                            (Some(i), Some(j)) => offset(i, j, c) as u32,
+                            (Some(i), Some(j)) => scratch_offset(i, j, c) as u32,
                             _ => SKIP,
                         });
                     }
@@ -91,7 +100,8 @@ impl BlockAssembler {
         let diagonal = (0..m).flat_map(|j| (0..3).map(move |c| (j, c))).map(|(j, c)| offset(j, j, c) + c).collect();
         let symbolic = SymbolicSparseColMat::new_checked(3 * m, 3 * m, col_ptr, None, row_idx);
         let matrix = SparseColMat::new(symbolic, vec![0.0; nnz]);
-        Ok(Self { matrix, offsets, element_start, diagonal })
+        let groups = bases.iter().zip(&rows).map(|(&b, r)| (b, r.len())).collect();
+        Ok(Self { matrix, offsets, element_start, diagonal, scratch: vec![0.0; nnz], groups })
     }
 
     /// The pattern of a shell's Hessian over `dofs`.
@@ -111,13 +121,14 @@ impl BlockAssembler {
         self.matrix.val().len()
     }
 
-    /// Set every value to zero.
-    pub fn clear(&mut self) {
-        self.matrix.val_mut().fill(0.0);
+    /// Start an assembly: zero the accumulation buffer.
+    pub fn begin(&mut self) {
+        self.scratch.fill(0.0);
     }
 
     /// Add an element's dense `3k × 3k` block (`k` = its stencil's vertex count) in column-major order
-    /// (for the symmetric blocks of a Hessian this is the same as row-major).
+    /// (for the symmetric blocks of a Hessian this is the same as row-major). Between
+    /// [`BlockAssembler::begin`] and [`BlockAssembler::finish`].
     pub fn add_element(&mut self, element: usize, block: &[f64]) -> Result<(), LinalgError> {
         let (Some(&start), Some(&end)) = (self.element_start.get(element), self.element_start.get(element + 1)) else {
             return Err(LinalgError::BadBlock { element, len: block.len() });
@@ -125,7 +136,7 @@ impl BlockAssembler {
         if block.len() != 3 * (end - start) {
             return Err(LinalgError::BadBlock { element, len: block.len() });
         }
-        let vals = self.matrix.val_mut();
+        let vals = &mut self.scratch;
         for (&off, src) in self.offsets[start..end].iter().zip(block.chunks_exact(3)) {
             if off == SKIP {
                 continue;
@@ -140,15 +151,31 @@ impl BlockAssembler {
         Ok(())
     }
 
+    /// End an assembly: move the accumulated blocks into the matrix (overwriting its values).
+    pub fn finish(&mut self) {
+        let vals = self.matrix.val_mut();
+        for &(base, n) in &self.groups {
+            let (src, dst) = (&self.scratch[base..base + 9 * n], &mut vals[base..base + 9 * n]);
+            for k in 0..n {
+                for c in 0..3 {
+                    let from = 9 * k + 3 * c;
+                    let to = c * 3 * n + 3 * k;
+                    dst[to..to + 3].copy_from_slice(&src[from..from + 3]);
+                }
+            }
+        }
+    }
+
     /// Overwrite the values with the shell's Hessian at positions `x` (a full-mesh position vector).
     pub fn assemble_shell(&mut self, shell: &DiscreteShell, x: &[DVec3], mode: HessianMode) {
-        self.clear();
+        self.begin();
         let mut bad = None;
         shell.element_hessians(x, mode, |e, _, h| {
             if let Err(err) = self.add_element(e, h) {
                 bad.get_or_insert(err);
             }
         });
+        self.finish();
         debug_assert!(bad.is_none(), "assembler built for a different shell: {bad:?}");
     }
 
@@ -215,8 +242,10 @@ mod tests {
         assert_eq!(a.dim(), 6);
         assert_eq!(a.nnz(), 36);
         let block: Vec<f64> = (0..36).map(|i| i as f64).collect();
+        a.begin();
         a.add_element(0, &block).unwrap();
         a.add_element(1, &block).unwrap();
+        a.finish();
         let d = a.to_dense();
         for i in 0..6 {
             for j in 0..6 {

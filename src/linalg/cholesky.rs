@@ -60,7 +60,9 @@ mod tests {
                 block[(i + 3) * 6 + i] = 1.0;
             }
         }
+        a.begin();
         a.add_element(0, &block).unwrap();
+        a.finish();
         let mut chol = SparseCholesky::new(a.matrix()).unwrap();
         chol.factor(a.matrix()).unwrap();
         let mut b = vec![5.0, 5.0, 5.0, 5.0, 5.0, 5.0];

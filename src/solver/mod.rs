@@ -5,17 +5,27 @@
 //! new method is one new file plus one line in [`registry::METHODS`].
 
 mod drag;
+mod ds_explicit;
+mod ds_implicit;
+mod ds_static;
 mod error;
 pub mod modal;
+mod newton;
 mod params;
 pub mod registry;
 mod rigid;
+mod shell_model;
 mod stats;
 
 pub use drag::{Drag, DragId, DragKind, DragSet};
+pub use ds_explicit::DsExplicit;
+pub use ds_implicit::DsImplicit;
+pub use ds_static::DsStatic;
 pub use error::SolverError;
+pub use newton::{Inertia, NewtonReport, NewtonSettings};
 pub use params::{ParamSpec, ParamValue};
 pub use registry::{METHODS, Method, build};
+pub use shell_model::ShellModel;
 pub use stats::{StepStats, check_finite};
 
 use glam::DVec3;

@@ -1,6 +1,6 @@
 //! The list of methods: a name, a one-line summary and a constructor. Adding a method is one line here.
 
-use super::{Solver, SolverError, modal, rigid};
+use super::{Solver, SolverError, ds_explicit, ds_implicit, ds_static, modal, rigid};
 use crate::scene::Setup;
 
 /// A registered simulation method.
@@ -15,7 +15,14 @@ pub struct Method {
 }
 
 /// Every method, in the order the UI lists them.
-pub const METHODS: &[Method] = &[modal::method::MWTS, modal::method::LMA, rigid::METHOD];
+pub const METHODS: &[Method] = &[
+    modal::method::MWTS,
+    modal::method::LMA,
+    ds_implicit::METHOD,
+    ds_static::METHOD,
+    ds_explicit::METHOD,
+    rigid::METHOD,
+];
 
 /// Look a method up by name.
 pub fn find(name: &str) -> Result<&'static Method, SolverError> {

@@ -106,7 +106,7 @@ mod tests {
 
     #[test]
     fn follows_the_first_position_drag_and_resets() {
-        let setup = crate::scene::load("cantilever", &[]).unwrap();
+        let setup = crate::scene::load("cantilever", &["solver.method=rigid".to_string()]).unwrap();
         let mut s = build(&setup).unwrap();
         let v = 5;
         let target = setup.mesh.positions()[v] + DVec3::new(0.0, 0.3, 0.0);

@@ -1,0 +1,251 @@
+//! State and physics shared by the three discrete-shell solvers (`ds`, `ds-implicit`, `ds-static`):
+//! the shell energy, lumped masses, free DOFs (anchors and position drags removed), external forces
+//! (gravity on the lumped masses plus the scene's point loads), the reduced Hessian pattern with its
+//! Cholesky analysis, and the shared parameters.
+//!
+//! Damping is Rayleigh with the *rest* stiffness, `C = α M + β K₀`: linear, the same damping the modal
+//! methods apply per mode (`α + β λᵢ`), so the DS references are comparable with them.
+
+use glam::DVec3;
+
+use super::{DragKind, DragSet, ParamSpec, ParamValue, SolverError};
+use crate::energy::{DiscreteShell, HessianMode, ShellStiffness};
+use crate::linalg::{BlockAssembler, DofMap, SparseCholesky};
+use crate::mesh::TriMesh;
+use crate::scene::Setup;
+
+const fn spec(name: &'static str, label: &'static str, unit: &'static str, help: &'static str) -> ParamSpec {
+    ParamSpec { name, label, unit, help, min: 0.0, max: 1e12, log_scale: true, integer: false }
+}
+
+/// Parameters every DS method has, in this order.
+pub(crate) const SHELL_PARAMS: [ParamSpec; 7] = [
+    spec("k_area", "area stiffness k_A", "N/m", "Stiffness of the triangle-area (stretch) term."),
+    spec("k_length", "length stiffness k_L", "N/m", "Stiffness of the edge-length (shear) term."),
+    spec("k_bend", "bending stiffness k_B", "N·m", "Stiffness of the hinge (flexural) term."),
+    ParamSpec { min: 1e-9, ..spec("density", "density", "kg/m²", "Surface density; lumped to vertices.") },
+    ParamSpec {
+        min: -1e4,
+        max: 1e4,
+        log_scale: false,
+        ..spec("gravity_y", "gravity y", "m/s²", "Vertical gravity component (x and z come from the scene).")
+    },
+    ParamSpec { max: 1e4, ..spec("rayleigh_alpha", "mass damping α", "1/s", "Rayleigh damping C = αM + βK₀.") },
+    ParamSpec { max: 1e4, ..spec("rayleigh_beta", "stiffness damping β", "s", "Rayleigh damping C = αM + βK₀.") },
+];
+
+/// The discrete-shell system: energy, masses, constraints and forces of one scene.
+#[derive(Debug)]
+pub struct ShellModel {
+    /// The elastic energy.
+    pub shell: DiscreteShell,
+    mesh: TriMesh,
+    anchored: Vec<bool>,
+    drag_revision: u64,
+    /// Prescribed positions of dragged vertices (vertex, target).
+    prescribed: Vec<(usize, DVec3)>,
+    dofs: DofMap,
+    masses: Vec<f64>,
+    gravity: DVec3,
+    loads: Vec<DVec3>,
+    f_ext: Vec<DVec3>,
+    density: f64,
+    /// Rayleigh mass damping α, 1/s.
+    pub alpha: f64,
+    /// Rayleigh stiffness damping β, s.
+    pub beta: f64,
+    pub(crate) asm: BlockAssembler,
+    pub(crate) chol: Option<SparseCholesky>,
+    k0: Option<Vec<f64>>,
+}
+
+impl ShellModel {
+    /// Build from a realised scene.
+    pub fn new(setup: &Setup) -> Result<Self, SolverError> {
+        let m = &setup.scene.material;
+        let k = ShellStiffness { k_area: m.k_area, k_length: m.k_length, k_bend: m.k_bend };
+        let shell = DiscreteShell::new(&setup.mesh, k).map_err(|e| SolverError::Numerical(e.to_string()))?;
+        let anchored = setup.anchored_mask();
+        let dofs = DofMap::without(&anchored);
+        let asm = BlockAssembler::for_shell(&shell, &dofs).map_err(|e| SolverError::Numerical(e.to_string()))?;
+        let mut model = Self {
+            shell,
+            mesh: setup.mesh.clone(),
+            anchored,
+            drag_revision: 0,
+            prescribed: Vec::new(),
+            dofs,
+            masses: Vec::new(),
+            gravity: setup.gravity(),
+            loads: setup.loads.clone(),
+            f_ext: Vec::new(),
+            density: m.density,
+            alpha: setup.scene.solver.rayleigh_alpha,
+            beta: setup.scene.solver.rayleigh_beta,
+            asm,
+            chol: None,
+            k0: None,
+        };
+        model.update_forces();
+        Ok(model)
+    }
+
+    fn update_forces(&mut self) {
+        self.masses = self.mesh.vertex_areas().into_iter().map(|a| a * self.density).collect();
+        self.f_ext = self.masses.iter().zip(&self.loads).map(|(&m, &l)| self.gravity * m + l).collect();
+    }
+
+    /// Rest positions.
+    pub fn rest(&self) -> &[DVec3] {
+        self.mesh.positions()
+    }
+
+    /// Lumped vertex masses, kg.
+    pub fn masses(&self) -> &[f64] {
+        &self.masses
+    }
+
+    /// The free DOFs.
+    pub fn dofs(&self) -> &DofMap {
+        &self.dofs
+    }
+
+    /// External force on every vertex (gravity on the lumped mass plus point loads), N.
+    pub fn external_forces(&self) -> &[DVec3] {
+        &self.f_ext
+    }
+
+    /// Whether any vertex is held (anchor or drag).
+    pub fn has_constraints(&self) -> bool {
+        self.dofs.free_count() < self.dofs.vertex_count()
+    }
+
+    /// A characteristic energy scale `max(1, Σ|f_ext| · L)` (L the bounding-box diagonal), J.
+    pub fn energy_scale(&self) -> f64 {
+        let (lo, hi) = self.mesh.bounding_box();
+        let l = (hi - lo).length();
+        (self.f_ext.iter().map(|f| f.length()).sum::<f64>() * l).max(1.0)
+    }
+
+    /// Potential energy `W(x) − Σ f_ext·(x − X)` (elastic plus load potential, zero at rest), J.
+    pub fn potential(&self, x: &[DVec3]) -> f64 {
+        self.shell.energy(x) - self.load_work(x)
+    }
+
+    fn load_work(&self, x: &[DVec3]) -> f64 {
+        x.iter().zip(self.rest()).zip(&self.f_ext).map(|((x, r), f)| f.dot(*x - *r)).sum()
+    }
+
+    /// Kinetic energy `½ Σ m |v|²`, J.
+    pub fn kinetic(&self, v: &[DVec3]) -> f64 {
+        0.5 * v.iter().zip(&self.masses).map(|(v, m)| m * v.length_squared()).sum::<f64>()
+    }
+
+    /// Gradient of the potential, `∇W − f_ext`, per vertex (into `g`); returns the potential.
+    pub fn potential_gradient(&self, x: &[DVec3], g: &mut [DVec3]) -> f64 {
+        let w = self.shell.gradient(x, g);
+        g.iter_mut().zip(&self.f_ext).for_each(|(g, f)| *g -= *f);
+        w - self.load_work(x)
+    }
+
+    /// Assemble the reduced Hessian of `W` at `x` into [`ShellModel::assembler`].
+    pub(crate) fn assemble(&mut self, x: &[DVec3], mode: HessianMode) {
+        self.asm.assemble_shell(&self.shell, x, mode);
+    }
+
+    /// The reduced rest stiffness `K₀` values (computed once, again after stiffness changes).
+    /// Overwrites the assembler's current values when it has to compute them.
+    pub(crate) fn rest_stiffness(&mut self) -> &[f64] {
+        if self.k0.is_none() {
+            let rest = self.rest().to_vec();
+            self.asm.assemble_shell(&self.shell, &rest, HessianMode::Exact);
+            self.k0 = Some(self.asm.values().to_vec());
+        }
+        self.k0.as_deref().unwrap_or_default()
+    }
+
+    /// `out = β K₀ v` on reduced vectors (zero if β = 0).
+    pub(crate) fn stiffness_damping(&mut self, v: &[f64], out: &mut [f64]) {
+        if self.beta == 0.0 {
+            out.fill(0.0);
+            return;
+        }
+        self.rest_stiffness();
+        if let Some(k0) = &self.k0 {
+            self.asm.multiply(Some(k0), v, out);
+        }
+        out.iter_mut().for_each(|o| *o *= self.beta);
+    }
+
+    /// Reduced lumped masses, one per DOF.
+    pub(crate) fn reduced_masses(&self) -> Vec<f64> {
+        self.dofs.free_vertices().iter().flat_map(|&v| [self.masses[v]; 3]).collect()
+    }
+
+    /// Apply the drags: dragged vertices become prescribed (removed DOFs, placed at their targets).
+    /// Rebuilds the DOF map and patterns when the drag set changed. Returns whether it changed.
+    pub(crate) fn apply_drags(
+        &mut self,
+        drags: &DragSet,
+        x: &mut [DVec3],
+        v: &mut [DVec3],
+    ) -> Result<bool, SolverError> {
+        let changed = drags.revision() != self.drag_revision;
+        if changed {
+            self.drag_revision = drags.revision();
+            self.prescribed = drags
+                .iter()
+                .filter_map(|(_, d)| match d.kind {
+                    DragKind::Position(p) => Some((d.vertex, p)),
+                    DragKind::Orientation(_) => None,
+                })
+                .collect();
+            let mut fixed = self.anchored.clone();
+            self.prescribed.iter().for_each(|&(i, _)| fixed[i] = true);
+            let dofs = DofMap::without(&fixed);
+            if dofs != self.dofs {
+                self.dofs = dofs;
+                self.asm = BlockAssembler::for_shell(&self.shell, &self.dofs)
+                    .map_err(|e| SolverError::Numerical(e.to_string()))?;
+                self.chol = None;
+                self.k0 = None;
+            }
+        }
+        for &(i, p) in &self.prescribed {
+            x[i] = p;
+            v[i] = DVec3::ZERO;
+        }
+        Ok(changed)
+    }
+
+    /// Current values of [`SHELL_PARAMS`].
+    pub(crate) fn params(&self) -> Vec<ParamValue> {
+        let k = self.shell.stiffness();
+        let values = [k.k_area, k.k_length, k.k_bend, self.density, self.gravity.y, self.alpha, self.beta];
+        SHELL_PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect()
+    }
+
+    /// Set one of [`SHELL_PARAMS`]; `Ok(false)` if `name` is not one of them.
+    pub(crate) fn set_param(&mut self, method: &'static str, name: &str, value: f64) -> Result<bool, SolverError> {
+        let Some(spec) = SHELL_PARAMS.iter().find(|s| s.name == name) else { return Ok(false) };
+        let value = ParamSpec::find(method, &SHELL_PARAMS, spec.name)?.check(value)?;
+        let mut k = self.shell.stiffness();
+        match name {
+            "k_area" => k.k_area = value,
+            "k_length" => k.k_length = value,
+            "k_bend" => k.k_bend = value,
+            "density" => self.density = value,
+            "gravity_y" => self.gravity.y = value,
+            "rayleigh_alpha" => self.alpha = value,
+            _ => self.beta = value,
+        }
+        self.shell.set_stiffness(k).map_err(|e| SolverError::BadParam {
+            name: name.into(),
+            value,
+            reason: e.to_string(),
+        })?;
+        self.k0 = None;
+        self.update_forces();
+        Ok(true)
+    }
+}
