@@ -99,6 +99,8 @@ struct Running {
     last_frame: Instant,
     screenshot: bool,
     message: Option<String>,
+    /// Width of the side panel in points (the 3D view is the rest of the window).
+    panel_width: f32,
 }
 
 impl ApplicationHandler for App {
@@ -204,6 +206,7 @@ impl Running {
             last_frame: Instant::now(),
             screenshot: false,
             message: None,
+            panel_width: 0.0,
         };
         if let Some((vertex, target)) = options.drag {
             let id = running.new_drag_id();
@@ -276,8 +279,22 @@ impl Running {
         }
     }
 
+    /// The part of the window right of the panel, in pixels: `[x, y, width, height]`.
+    fn viewport_rect(&self) -> [f32; 4] {
+        let (w, h) = (self.config.width as f32, self.config.height as f32);
+        let x = (self.panel_width * self.window.scale_factor() as f32).clamp(0.0, w - 1.0);
+        [x, 0.0, w - x, h]
+    }
+
+    /// Size of the 3D viewport.
     fn viewport(&self) -> Vec2 {
-        Vec2::new(self.config.width as f32, self.config.height as f32)
+        let [_, _, w, h] = self.viewport_rect();
+        Vec2::new(w, h)
+    }
+
+    /// The pointer in viewport coordinates.
+    fn viewport_pointer(&self) -> Vec2 {
+        self.pointer - Vec2::new(self.viewport_rect()[0], 0.0)
     }
 
     fn button(&mut self, state: ElementState, button: MouseButton, consumed: bool) {
@@ -303,7 +320,7 @@ impl Running {
     fn start_drag(&mut self) -> Option<Gesture> {
         let camera = self.orbit.camera();
         let positions: Vec<Vec3> = self.sim.latest().positions.iter().map(|p| p.as_vec3()).collect();
-        let vertex = pick_vertex(&camera, &positions, self.pointer, self.viewport(), 12.0)?;
+        let vertex = pick_vertex(&camera, &positions, self.viewport_pointer(), self.viewport(), 12.0)?;
         if self.setup.anchors.binary_search(&vertex).is_ok() {
             return None;
         }
@@ -325,7 +342,7 @@ impl Running {
             Gesture::Pan => self.orbit.pan(delta, self.viewport().y),
             Gesture::Drag { id, vertex, mode: DragMode::Position, .. } => {
                 let Some(p) = self.sim.latest().positions.get(vertex).map(|p| p.as_vec3()) else { return };
-                let ray = pixel_ray(&camera, self.pointer, self.viewport());
+                let ray = pixel_ray(&camera, self.viewport_pointer(), self.viewport());
                 let target = view_plane_point(&camera, &ray, p);
                 self.sim.send(Command::MoveDrag(id, DragKind::Position(target.as_dvec3())));
             }
@@ -383,14 +400,17 @@ impl Running {
         let mut actions = Vec::new();
         let message = self.message.clone();
         let panel = &mut self.panel;
+        let mut panel_width = self.panel_width;
         let output = self.egui_state.egui_ctx().clone().run_ui(raw, |ui| {
-            egui::Panel::left("controls").resizable(true).default_size(330.0).show(ui, |ui| {
+            let shown = egui::Panel::left("controls").resizable(true).default_size(330.0).show(ui, |ui| {
                 if let Some(m) = &message {
                     ui.colored_label(egui::Color32::from_rgb(220, 60, 40), m);
                 }
                 actions = panel::show(ui, panel, &snapshot);
             });
+            panel_width = shown.response.rect.width();
         });
+        self.panel_width = panel_width;
         for a in actions {
             if let Err(e) = self.apply(a) {
                 self.message = Some(format!("{e:#}"));
@@ -414,12 +434,13 @@ impl Running {
         };
         let target = frame_texture.texture.create_view(&Default::default());
         let size = (self.config.width, self.config.height);
-        let frame = self.view.frame(
+        let mut frame = self.view.frame(
             self.orbit.camera(),
             &snapshot.positions,
             &snapshot.drags,
             ViewOptions { wireframe: self.panel.wireframe },
         );
+        frame.viewport = Some(self.viewport_rect());
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         self.renderer.encode(&self.gpu, &mut encoder, &frame, &target, size)?;
         let screen =

@@ -162,6 +162,9 @@ pub struct Frame {
     pub markers: Vec<Marker>,
     /// Linear RGBA clear colour.
     pub background: [f32; 4],
+    /// Draw the scene into this sub-rectangle `[x, y, width, height]` (pixels) of the target, e.g. the
+    /// part of a window not covered by a side panel; `None` is the whole target. The clear covers all.
+    pub viewport: Option<[f32; 4]>,
 }
 
 impl Default for Frame {
@@ -176,7 +179,14 @@ pub const DEFAULT_BACKGROUND: [f32; 4] = [0.55, 0.63, 0.76, 1.0];
 impl Frame {
     /// An empty frame seen from `camera` on the [`DEFAULT_BACKGROUND`].
     pub fn new(camera: Camera) -> Self {
-        Self { camera, meshes: Vec::new(), lines: Vec::new(), markers: Vec::new(), background: DEFAULT_BACKGROUND }
+        Self {
+            camera,
+            meshes: Vec::new(),
+            lines: Vec::new(),
+            markers: Vec::new(),
+            background: DEFAULT_BACKGROUND,
+            viewport: None,
+        }
     }
 
     /// Append one line segment.

@@ -137,7 +137,15 @@ impl Renderer {
         self.geometry.build(frame)?;
         self.ensure_targets(gpu, size);
         let (device, queue) = (&gpu.device, &gpu.queue);
-        let aspect = size.0 as f32 / size.1 as f32;
+        let full = [0.0, 0.0, size.0 as f32, size.1 as f32];
+        let [vx, vy, vw, vh] = frame
+            .viewport
+            .map(|[x, y, w, h]| {
+                let (x, y) = (x.clamp(0.0, full[2] - 1.0), y.clamp(0.0, full[3] - 1.0));
+                [x, y, w.clamp(1.0, full[2] - x), h.clamp(1.0, full[3] - y)]
+            })
+            .unwrap_or(full);
+        let aspect = vw / vh;
         let globals = Globals::new(&frame.camera, aspect, !self.color_format.is_srgb());
         queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
         let lit_v = self.lit_vertices.upload(device, queue, bytemuck::cast_slice(&self.geometry.lit_vertices));
@@ -172,6 +180,7 @@ impl Renderer {
             multiview_mask: None,
         });
         pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_viewport(vx, vy, vw, vh, 0.0, 1.0);
         if let (Some(vertices), Some(indices)) = (lit_v, lit_i) {
             pass.set_pipeline(&self.pipelines.lit);
             pass.set_vertex_buffer(0, vertices.slice(..));
