@@ -192,6 +192,22 @@ impl BlockAssembler {
         self.matrix.val_mut().iter_mut().zip(values).for_each(|(a, b)| *a += scale * b);
     }
 
+    /// For each free block, the other free blocks it is coupled to (the matrix graph over vertices).
+    pub fn block_adjacency(&self) -> Vec<Vec<usize>> {
+        let sym = self.matrix.symbolic();
+        let (ptr, rows) = (sym.col_ptr(), sym.row_idx());
+        (0..self.dim() / 3)
+            .map(|b| {
+                // The three scalar columns of a block share one row pattern: read the first, one row per block.
+                (ptr[3 * b]..ptr[3 * b + 1])
+                    .map(|p| rows[p])
+                    .filter(|r| r % 3 == 0 && r / 3 != b)
+                    .map(|r| r / 3)
+                    .collect()
+            })
+            .collect()
+    }
+
     /// The values (in the pattern's order).
     pub fn values(&self) -> &[f64] {
         self.matrix.val()

@@ -1,44 +1,107 @@
-//! Sparse Cholesky (faer `Llt`) with the symbolic analysis (fill-reducing ordering, elimination tree)
-//! done once per pattern and the numeric factorisation per Newton step.
+//! Sparse Cholesky (faer's supernodal `LLᵀ`) with the symbolic analysis (fill-reducing ordering,
+//! elimination tree, supernodes) done once per pattern and the numeric factorisation per use.
+//!
+//! The ordering is faer's approximate minimum degree by default, or one supplied by the caller
+//! (e.g. [`super::ordering::nested_dissection`] expanded to DOFs). Everything runs on the calling
+//! thread (`Par::Seq`): the simulation and render threads already use the machine's cores.
 
-use faer::linalg::solvers::Solve;
+use dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::perm::Perm;
 use faer::sparse::SparseColMatRef;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
-use faer::{MatMut, Side};
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+};
+use faer::{Conj, MatMut, Par, Side};
 
 use super::LinalgError;
 
 /// A reusable symbolic Cholesky factorisation of one sparsity pattern (reads the upper triangle).
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct SparseCholesky {
-    symbolic: SymbolicLlt<usize>,
-    factor: Option<Llt<usize, f64>>,
+    symbolic: SymbolicCholesky<usize>,
+    values: Vec<f64>,
+    factored: bool,
 }
 
 impl SparseCholesky {
-    /// Analyse the pattern of `matrix`.
+    /// Analyse the pattern of `matrix` with an approximate-minimum-degree ordering.
     pub fn new(matrix: SparseColMatRef<'_, usize, f64>) -> Result<Self, LinalgError> {
-        let symbolic = SymbolicLlt::try_new(matrix.symbolic(), Side::Upper)
-            .map_err(|e| LinalgError::Symbolic(format!("{e:?}")))?;
-        Ok(Self { symbolic, factor: None })
+        Self::analyse(matrix, SymmetricOrdering::Amd)
+    }
+
+    /// Analyse the pattern of `matrix` eliminating the unknowns in `order` (`order[k]` is
+    /// eliminated `k`-th; a permutation of `0..n`).
+    pub fn with_order(matrix: SparseColMatRef<'_, usize, f64>, order: &[usize]) -> Result<Self, LinalgError> {
+        let n = matrix.nrows();
+        let mut inverse = vec![usize::MAX; n];
+        for (k, &i) in order.iter().enumerate() {
+            if i >= n || inverse[i] != usize::MAX {
+                return Err(LinalgError::Symbolic(format!("elimination order is not a permutation of 0..{n}")));
+            }
+            inverse[i] = k;
+        }
+        if order.len() != n {
+            return Err(LinalgError::Symbolic(format!(
+                "elimination order has {} entries for {n} unknowns",
+                order.len()
+            )));
+        }
+        let perm = Perm::new_checked(order.to_vec().into_boxed_slice(), inverse.into_boxed_slice(), n);
+        Self::analyse(matrix, SymmetricOrdering::Custom(perm.as_ref()))
+    }
+
+    fn analyse(
+        matrix: SparseColMatRef<'_, usize, f64>,
+        ordering: SymmetricOrdering<'_, usize>,
+    ) -> Result<Self, LinalgError> {
+        let symbolic =
+            factorize_symbolic_cholesky(matrix.symbolic(), Side::Upper, ordering, CholeskySymbolicParams::default())
+                .map_err(|e| LinalgError::Symbolic(format!("{e:?}")))?;
+        Ok(Self { values: vec![0.0; symbolic.len_val()], symbolic, factored: false })
+    }
+
+    /// Number of stored entries of the factor `L` (a measure of fill and of solve cost).
+    pub fn factor_entries(&self) -> usize {
+        self.symbolic.len_val()
     }
 
     /// Factorise `matrix` (same pattern as at construction). Fails if it is not positive definite.
     pub fn factor(&mut self, matrix: SparseColMatRef<'_, usize, f64>) -> Result<(), LinalgError> {
-        self.factor = None;
-        let llt = Llt::try_new_with_symbolic(self.symbolic.clone(), matrix, Side::Upper)
+        self.factored = false;
+        let need = self.symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
+        let mut scratch =
+            MemBuffer::try_new(need).map_err(|_| LinalgError::NotPositiveDefinite("out of memory".into()))?;
+        self.symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut self.values,
+                matrix,
+                Side::Upper,
+                LltRegularization::default(),
+                Par::Seq,
+                MemStack::new(&mut scratch),
+                Default::default(),
+            )
             .map_err(|e| LinalgError::NotPositiveDefinite(format!("{e:?}")))?;
-        self.factor = Some(llt);
+        self.factored = true;
         Ok(())
     }
 
     /// Solve `A x = b` in place with the last successful factorisation.
     pub fn solve(&self, b: &mut [f64]) -> Result<(), LinalgError> {
-        let Some(llt) = &self.factor else {
+        if !self.factored {
             return Err(LinalgError::NotPositiveDefinite("no successful factorisation to solve with".into()));
-        };
+        }
         let n = b.len();
-        llt.solve_in_place(MatMut::from_column_major_slice_mut(b, n, 1));
+        let need = self.symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
+        let mut scratch =
+            MemBuffer::try_new(need).map_err(|_| LinalgError::NotPositiveDefinite("out of memory".into()))?;
+        LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(b, n, 1),
+            Par::Seq,
+            MemStack::new(&mut scratch),
+        );
         Ok(())
     }
 }

@@ -66,6 +66,20 @@ fn dot_m(a: &[f64], b: &[f64], m: &[f64]) -> f64 {
     a.iter().zip(b).zip(m).map(|((x, y), w)| x * y * w).sum()
 }
 
+/// The Ritz vectors `V y_i` for the selected columns `i` of `y`.
+fn ritz_vectors(basis: &[Vec<f64>], y: &DMatrix<f64>, sel: &[usize], n: usize) -> Vec<Vec<f64>> {
+    sel.iter()
+        .map(|&i| {
+            let mut x = vec![0.0; n];
+            for (k, b) in basis.iter().enumerate() {
+                let c = y[(k, i)];
+                x.iter_mut().zip(b).for_each(|(o, v)| *o += c * v);
+            }
+            x
+        })
+        .collect()
+}
+
 /// The `count` eigenpairs of `K φ = λ M φ` nearest above `options.shift`, for an `n`-dimensional
 /// problem with diagonal mass `mass`, given `solve(x, y)` computing `y = (K − σM)⁻¹ x`.
 pub fn lowest_modes(
@@ -146,6 +160,22 @@ pub fn lowest_modes(
             } else {
                 w.iter_mut().for_each(|x| *x /= beta);
             }
+            // Early exit: once the basis is a few vectors past `count`, check convergence every other
+            // step (a Ritz check costs a small dense eigen solve; a solve costs far more).
+            let size = j + 1;
+            if size < kmax && size >= count + 4 && (size - kept) % 2 == 0 {
+                let eig = SymmetricEigen::new(h.view((0, 0), (size, size)).into_owned());
+                let mut order: Vec<usize> = (0..size).collect();
+                order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+                let done = order[..count].iter().all(|&i| {
+                    beta * eig.eigenvectors[(size - 1, i)].abs() <= options.tolerance * eig.eigenvalues[i].abs()
+                });
+                if done {
+                    let sel = &order[..count];
+                    let values = sel.iter().map(|&i| options.shift + 1.0 / eig.eigenvalues[i]).collect();
+                    return Ok(EigenPairs { values, vectors: ritz_vectors(&basis, &eig.eigenvectors, sel, n), solves });
+                }
+            }
             if j + 1 < kmax {
                 basis.push(w.clone());
             } else {
@@ -163,18 +193,7 @@ pub fn lowest_modes(
                 residual_beta * eig.eigenvectors[(kmax - 1, i)].abs() <= options.tolerance * eig.eigenvalues[i].abs()
             })
             .count();
-        let ritz = |sel: &[usize]| -> Vec<Vec<f64>> {
-            sel.iter()
-                .map(|&i| {
-                    let mut x = vec![0.0; n];
-                    for (k, b) in basis.iter().enumerate() {
-                        let y = eig.eigenvectors[(k, i)];
-                        x.iter_mut().zip(b).for_each(|(o, v)| *o += y * v);
-                    }
-                    x
-                })
-                .collect()
-        };
+        let ritz = |sel: &[usize]| ritz_vectors(&basis, &eig.eigenvectors, sel, n);
         if converged == count || kmax == n {
             let sel: Vec<usize> = order[..count].to_vec();
             let values = sel.iter().map(|&i| options.shift + 1.0 / eig.eigenvalues[i]).collect();

@@ -9,6 +9,7 @@ mod cholesky;
 mod dofs;
 mod error;
 pub mod lanczos;
+pub mod ordering;
 
 pub use assembly::BlockAssembler;
 pub use cholesky::SparseCholesky;

@@ -1,5 +1,6 @@
-//! A modal basis: eigenvalues, mode shapes `Φ` and modal rotations `Ψ = WΦ`, laid out per vertex
-//! so that one step touches each vertex's data once.
+//! A modal basis: eigenvalues, mode shapes `Φ` and modal rotations `Ψ = WΦ`, stored mode by mode
+//! (each column a contiguous `3n` array) so that `Φq`, `Ψq` and `Φᵀf` are vectorised AXPYs and dot
+//! products over long arrays.
 
 use glam::DVec3;
 
@@ -12,7 +13,7 @@ use crate::mesh::TriMesh;
 pub struct ModalBasis {
     /// Eigenvalues `λ_j = ω_j²`, ascending, 1/s².
     pub eigenvalues: Vec<f64>,
-    /// `Φ` as `[(vertex · 3 + axis) · m + mode]`.
+    /// `Φ` as `[mode · 3n + vertex · 3 + axis]`.
     phi: Vec<f64>,
     /// `Ψ = WΦ` in the same layout.
     psi: Vec<f64>,
@@ -31,8 +32,8 @@ impl ModalBasis {
             let rot = w.apply(shape);
             for v in 0..n {
                 for a in 0..3 {
-                    phi[(v * 3 + a) * m + j] = shape[v][a];
-                    psi[(v * 3 + a) * m + j] = rot[v][a];
+                    phi[j * 3 * n + 3 * v + a] = shape[v][a];
+                    psi[j * 3 * n + 3 * v + a] = rot[v][a];
                 }
             }
         }
@@ -54,47 +55,71 @@ impl ModalBasis {
         self.eigenvalues.iter().map(|l| l.max(0.0).sqrt() / std::f64::consts::TAU).collect()
     }
 
-    /// Row block of `Φ` for vertex `v`: `(Φ_v q)` = linear displacement of `v`.
+    /// Linear displacement of vertex `v`, `Φ_v q`.
     pub fn displacement(&self, v: usize, q: &[f64]) -> DVec3 {
-        row_times(&self.phi, v, self.modes, q)
+        vertex_times(&self.phi, self.vertex_count(), v, q)
     }
 
-    /// Row block of `Ψ` for vertex `v`: `(Ψ_v q)` = rotation vector of `v`.
+    /// Rotation vector of vertex `v`, `Ψ_v q`.
     pub fn rotation(&self, v: usize, q: &[f64]) -> DVec3 {
-        row_times(&self.psi, v, self.modes, q)
+        vertex_times(&self.psi, self.vertex_count(), v, q)
     }
 
     /// Entry `Φ[v, axis, mode]`.
     pub fn phi(&self, v: usize, axis: usize, mode: usize) -> f64 {
-        self.phi[(v * 3 + axis) * self.modes + mode]
+        self.phi[mode * 3 * self.vertex_count() + 3 * v + axis]
     }
 
     /// Entry `Ψ[v, axis, mode]`.
     pub fn psi(&self, v: usize, axis: usize, mode: usize) -> f64 {
-        self.psi[(v * 3 + axis) * self.modes + mode]
+        self.psi[mode * 3 * self.vertex_count() + 3 * v + axis]
     }
 
-    /// Vertex `v`'s three rows of `Φ` and of `Ψ`, each `3 · m` long (axis-major).
-    pub fn rows(&self, v: usize) -> (&[f64], &[f64]) {
-        let r = v * 3 * self.modes..(v + 1) * 3 * self.modes;
-        (&self.phi[r.clone()], &self.psi[r])
+    /// Column `mode` of `Φ` (`3n` values, vertex-major).
+    pub fn phi_column(&self, mode: usize) -> &[f64] {
+        let n3 = 3 * self.vertex_count();
+        &self.phi[mode * n3..(mode + 1) * n3]
+    }
+
+    /// Column `mode` of `Ψ`.
+    pub fn psi_column(&self, mode: usize) -> &[f64] {
+        let n3 = 3 * self.vertex_count();
+        &self.psi[mode * n3..(mode + 1) * n3]
+    }
+
+    /// `Φ q` into `out` (`3n` values).
+    pub fn combine_phi(&self, q: &[f64], out: &mut [f64]) {
+        combine(&self.phi, q, out);
+    }
+
+    /// `Ψ q` into `out` (`3n` values).
+    pub fn combine_psi(&self, q: &[f64], out: &mut [f64]) {
+        combine(&self.psi, q, out);
     }
 
     /// Least-squares coordinates of a displacement field in this basis (`Φᵀ M u` for mass `M`).
     pub fn project(&self, masses: &[f64], u: &[DVec3]) -> Vec<f64> {
-        let m = self.modes;
-        let mut q = vec![0.0; m];
-        for (v, (mv, uv)) in masses.iter().zip(u).enumerate() {
-            for a in 0..3 {
-                let row = &self.phi[(v * 3 + a) * m..(v * 3 + a + 1) * m];
-                q.iter_mut().zip(row).for_each(|(qj, p)| *qj += p * mv * uv[a]);
-            }
-        }
-        q
+        (0..self.modes)
+            .map(|j| {
+                let col = self.phi_column(j);
+                u.iter()
+                    .zip(masses)
+                    .enumerate()
+                    .map(|(v, (uv, mv))| mv * uv.dot(DVec3::from_slice(&col[3 * v..])))
+                    .sum()
+            })
+            .collect()
     }
 }
 
-fn row_times(data: &[f64], v: usize, m: usize, q: &[f64]) -> DVec3 {
-    let r = |a: usize| data[(v * 3 + a) * m..(v * 3 + a + 1) * m].iter().zip(q).map(|(x, y)| x * y).sum::<f64>();
-    DVec3::new(r(0), r(1), r(2))
+fn vertex_times(data: &[f64], n: usize, v: usize, q: &[f64]) -> DVec3 {
+    q.iter().enumerate().fold(DVec3::ZERO, |acc, (j, qj)| acc + DVec3::from_slice(&data[j * 3 * n + 3 * v..]) * *qj)
+}
+
+/// `Σ_j q_j · column_j` of a column-major matrix with `out.len()` rows.
+fn combine(data: &[f64], q: &[f64], out: &mut [f64]) {
+    out.fill(0.0);
+    for (col, &qj) in data.chunks_exact(out.len()).zip(q) {
+        out.iter_mut().zip(col).for_each(|(o, c)| *o += qj * c);
+    }
 }

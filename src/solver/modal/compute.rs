@@ -13,6 +13,7 @@ use glam::DVec3;
 use super::basis::ModalBasis;
 use crate::energy::{DiscreteShell, HessianMode, ShellStiffness};
 use crate::linalg::lanczos::{LanczosOptions, lowest_modes};
+use crate::linalg::ordering::nested_dissection;
 use crate::linalg::{BlockAssembler, DofMap, SparseCholesky};
 use crate::mesh::TriMesh;
 use crate::solver::SolverError;
@@ -98,7 +99,12 @@ pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<Mod
     progress(0.1);
 
     let t1 = Instant::now();
-    let mut chol = SparseCholesky::new(k.matrix()).map_err(numerical)?;
+    let points: Vec<DVec3> = dofs.free_vertices().iter().map(|&v| mesh.positions()[v]).collect();
+    let order: Vec<usize> = nested_dissection(&points, &k.block_adjacency())
+        .into_iter()
+        .flat_map(|b| [3 * b, 3 * b + 1, 3 * b + 2])
+        .collect();
+    let mut chol = SparseCholesky::with_order(k.matrix(), &order).map_err(numerical)?;
     chol.factor(k.matrix()).map_err(numerical)?;
     let factorisation = t1.elapsed().as_secs_f64();
     progress(0.3);

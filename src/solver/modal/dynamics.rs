@@ -49,10 +49,11 @@ pub struct ModalDynamics {
     rest: Vec<DVec3>,
     /// External force per vertex (gravity · mass + point loads), N.
     forces: Vec<DVec3>,
-    /// Current rotation vector of each vertex (`Ψ_i q`).
-    rotations: Vec<DVec3>,
-    /// Warp coefficients of each vertex's current rotation ([`coefficients`]).
-    coefficients: Vec<[f64; 3]>,
+    /// Modal force `g = Φᵀ R̃ᵀ f` at the current rotations (computed with the positions).
+    force: Vec<f64>,
+    /// Work arrays of `3n` values (kept to avoid allocating every step).
+    scratch_lin: Vec<f64>,
+    scratch_rot: Vec<f64>,
     /// Current positions.
     positions: Vec<DVec3>,
 }
@@ -61,8 +62,7 @@ impl ModalDynamics {
     /// Start at rest.
     pub fn new(basis: ModalBasis, rest: Vec<DVec3>, forces: Vec<DVec3>, warp: bool) -> Self {
         let m = basis.modes();
-        let n = rest.len();
-        Self {
+        let mut dynamics = Self {
             basis,
             q: vec![0.0; m],
             v: vec![0.0; m],
@@ -70,9 +70,12 @@ impl ModalDynamics {
             positions: rest.clone(),
             rest,
             forces,
-            rotations: vec![DVec3::ZERO; n],
-            coefficients: vec![coefficients(0.0); n],
-        }
+            force: vec![0.0; m],
+            scratch_lin: Vec::new(),
+            scratch_rot: Vec::new(),
+        };
+        dynamics.update_positions();
+        dynamics
     }
 
     /// Current positions `X + u(q)`.
@@ -83,6 +86,7 @@ impl ModalDynamics {
     /// Replace the external forces (after a gravity or density change).
     pub fn set_forces(&mut self, forces: Vec<DVec3>) {
         self.forces = forces;
+        self.update_positions();
     }
 
     /// Swap in a new basis, carrying the state over by projecting the current displacement and
@@ -108,28 +112,10 @@ impl ModalDynamics {
         0.5 * self.q.iter().zip(&self.v).zip(&self.basis.eigenvalues).map(|((q, v), l)| v * v + l * q * q).sum::<f64>()
     }
 
-    /// Modal force `g = Φᵀ R̃ᵀ f` (or `Φᵀ f` without warping), using the current rotations.
-    fn modal_force(&self) -> Vec<f64> {
-        let m = self.basis.modes();
-        let mut g = vec![0.0; m];
-        for (i, f) in self.forces.iter().enumerate() {
-            if *f == DVec3::ZERO {
-                continue;
-            }
-            let local = if self.warp { rotate_back(self.rotations[i], self.coefficients[i], *f) } else { *f };
-            let (phi, _) = self.basis.rows(i);
-            for a in 0..3 {
-                let row = &phi[a * m..(a + 1) * m];
-                g.iter_mut().zip(row).for_each(|(gj, p)| *gj += p * local[a]);
-            }
-        }
-        g
-    }
-
     /// Advance one step under the drag constraints.
     pub fn step(&mut self, p: &ModalParams, drags: &DragSet) {
         let h = p.step;
-        let g = self.modal_force();
+        let g = &self.force;
         let m = self.basis.modes();
         let mut d = vec![0.0; m];
         let mut q_hat = vec![0.0; m];
@@ -162,20 +148,21 @@ impl ModalDynamics {
         let mut rhs = DVector::<f64>::zeros(rows);
         for (k, (_, drag)) in drags.iter().enumerate() {
             let i = drag.vertex;
-            let (phi, psi) = self.basis.rows(i);
-            let block = |data: &[f64], map: DMat3, jac: &mut DMatrix<f64>| {
+            let block = |entry: &dyn Fn(usize, usize) -> f64, map: DMat3, jac: &mut DMatrix<f64>| {
                 for a in 0..3 {
                     for j in 0..m {
-                        jac[(3 * k + a, j)] = (0..3).map(|b| map.col(b)[a] * data[b * m + j]).sum();
+                        jac[(3 * k + a, j)] = (0..3).map(|b| map.col(b)[a] * entry(b, j)).sum();
                     }
                 }
             };
-            let (target, map, data) = match drag.kind {
+            let phi = |b: usize, j: usize| self.basis.phi(i, b, j);
+            let psi = |b: usize, j: usize| self.basis.psi(i, b, j);
+            let (target, map, data): (DVec3, DMat3, &dyn Fn(usize, usize) -> f64) = match drag.kind {
                 DragKind::Position(p) => {
-                    let map = if self.warp { warp_operator(self.rotations[i]) } else { DMat3::IDENTITY };
-                    (p - self.rest[i], map, phi)
+                    let map = if self.warp { warp_operator(self.basis.rotation(i, &self.q)) } else { DMat3::IDENTITY };
+                    (p - self.rest[i], map, &phi)
                 }
-                DragKind::Orientation(w) => (w, DMat3::IDENTITY, psi),
+                DragKind::Orientation(w) => (w, DMat3::IDENTITY, &psi),
             };
             block(data, map, &mut jac);
             for a in 0..3 {
@@ -196,26 +183,49 @@ impl ModalDynamics {
         }
     }
 
-    /// Recompute rotations and positions from `q`.
+    /// Recompute the positions from `q`, and with them the modal force at the new rotations:
+    /// `Φq` and `Ψq` as column combinations, the warp per vertex, then `g = Φᵀ(R̃ᵀf)` as dot products.
+    /// This is the whole per-vertex cost of a step.
     fn update_positions(&mut self) {
-        let m = self.basis.modes();
-        let q = &self.q;
-        let dot = |row: &[f64]| row.iter().zip(q).map(|(a, b)| a * b).sum::<f64>();
-        for i in 0..self.rest.len() {
-            let (phi, psi) = self.basis.rows(i);
-            let lin = DVec3::new(dot(&phi[..m]), dot(&phi[m..2 * m]), dot(&phi[2 * m..]));
-            let u = if self.warp {
-                let w = DVec3::new(dot(&psi[..m]), dot(&psi[m..2 * m]), dot(&psi[2 * m..]));
+        let n3 = 3 * self.rest.len();
+        let mut lin = std::mem::take(&mut self.scratch_lin);
+        let mut rot = std::mem::take(&mut self.scratch_rot);
+        lin.resize(n3, 0.0);
+        rot.resize(n3, 0.0);
+        self.basis.combine_phi(&self.q, &mut lin);
+        if self.warp {
+            self.basis.combine_psi(&self.q, &mut rot);
+        }
+        // `rot` is reused for the rotated-back forces once each vertex's rotation has been read.
+        for (i, ((x, rest), f)) in self.positions.iter_mut().zip(&self.rest).zip(&self.forces).enumerate() {
+            let l = DVec3::from_slice(&lin[3 * i..]);
+            let (u, local) = if self.warp {
+                let w = DVec3::from_slice(&rot[3 * i..]);
                 let k = coefficients(w.length_squared());
-                self.rotations[i] = w;
-                self.coefficients[i] = k;
-                warp(w, k, lin)
+                (warp(w, k, l), rotate_back(w, k, *f))
             } else {
-                lin
+                (l, *f)
             };
-            self.positions[i] = self.rest[i] + u;
+            *x = *rest + u;
+            local.write_to_slice(&mut rot[3 * i..]);
+        }
+        self.force = (0..self.basis.modes()).map(|j| dot(self.basis.phi_column(j), &rot)).collect();
+        self.scratch_lin = lin;
+        self.scratch_rot = rot;
+    }
+}
+
+/// Dot product with eight independent partial sums, so the reduction vectorises.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut acc = [0.0; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let tail: f64 = ca.remainder().iter().zip(cb.remainder()).map(|(x, y)| x * y).sum();
+    for (x, y) in ca.zip(cb) {
+        for k in 0..8 {
+            acc[k] += x[k] * y[k];
         }
     }
+    acc.iter().sum::<f64>() + tail
 }
 
 #[cfg(test)]
@@ -251,7 +261,7 @@ mod tests {
     fn lma_settles_at_the_static_modal_solution() {
         let (mut dynamics, _) = strip();
         dynamics.warp = false;
-        let g = dynamics.modal_force();
+        let g = dynamics.force.clone();
         for _ in 0..2000 {
             dynamics.step(&P, &DragSet::default());
         }
