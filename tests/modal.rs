@@ -144,3 +144,36 @@ fn mwts_twists_a_beam_smoothly_by_90_180_and_360_degrees() {
         }
     }
 }
+
+#[test]
+fn changing_the_mode_count_recomputes_in_the_background_and_carries_the_state_over() {
+    use shellwarp::solver::Solver;
+    use shellwarp::solver::modal::method::ModalSolver;
+    let setup = scene::load("cantilever", &["solver.modes=6".into()]).unwrap();
+    let mut s = ModalSolver::new(&setup, true).unwrap();
+    assert_eq!(s.analysis().basis.modes(), 6);
+    for _ in 0..20 {
+        s.step().unwrap();
+    }
+    let before = s.positions().to_vec();
+    s.set_param("modes", 10.0).unwrap();
+    let mut swapped_after = None;
+    for k in 0..2000 {
+        let prev = s.positions().to_vec();
+        s.step().expect("the step loop keeps running on the old modes meanwhile");
+        if k == 0 {
+            assert!(s.progress().is_some(), "a background recompute is reported");
+        }
+        if s.progress().is_none() {
+            // The swap happened in this step: the shape moves by no more than a normal step would.
+            let jump = prev.iter().zip(s.positions()).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+            let sag = before.iter().zip(setup.mesh.positions()).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+            assert!(jump < 0.05 * sag, "jump {jump} at the swap, sag {sag}");
+            swapped_after = Some(k);
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    assert!(swapped_after.is_some(), "the new basis arrived");
+    assert_eq!(s.analysis().basis.modes(), 10, "the new basis is in use");
+}

@@ -20,7 +20,7 @@ fn harness(scene: &str) -> (Harness<'static, Ui>, SimHandle) {
     let solver = shellwarp::solver::build(&setup).unwrap();
     let mut sim = SimHandle::spawn(solver, true, Pacing::Scaled(1.0));
     let ui = Ui {
-        panel: PanelState::new(vec![scene.into()], vec!["rigid".into()], scene.into()),
+        panel: PanelState::new(vec![scene.into()], vec!["mwts".into(), "lma".into()], scene.into()),
         snapshot: sim.latest().clone(),
         actions: Vec::new(),
     };
@@ -68,25 +68,35 @@ fn type_into(h: &mut Harness<'static, Ui>, label: &str, text: &str) {
     h.run();
 }
 
+fn value(s: &Snapshot, name: &str) -> Option<f64> {
+    s.params.iter().find(|p| p.spec.name == name).map(|p| p.value)
+}
+
 #[test]
-fn typed_parameter_reaches_the_solver() {
+fn bending_stiffness_and_mode_count_typed_in_the_panel_reach_the_solver() {
     let (mut h, mut sim) = harness("cantilever");
     h.run();
-    type_into(&mut h, "time step", "0.01");
-    assert!(h.state().actions.contains(&UiAction::SetParam("step".into(), 0.01)), "actions: {:?}", h.state().actions);
-    let reached = deliver(&mut h, &mut sim, |s| s.params.iter().any(|p| p.spec.name == "step" && p.value == 0.01));
-    assert!(reached, "the solver's parameter never changed");
+    assert_eq!(h.state().snapshot.method, "mwts");
+    type_into(&mut h, "k_B (bending)", "0.25");
+    assert!(h.state().actions.contains(&UiAction::SetParam("k_bend".into(), 0.25)), "{:?}", h.state().actions);
+    assert!(deliver(&mut h, &mut sim, |s| value(s, "k_bend") == Some(0.25)), "k_B never reached the solver");
+    type_into(&mut h, "modes", "12");
+    assert!(h.state().actions.contains(&UiAction::SetParam("modes".into(), 12.0)), "{:?}", h.state().actions);
+    // The modes are recomputed in the background; the solver reports the new count at once.
+    assert!(deliver(&mut h, &mut sim, |s| value(s, "modes") == Some(12.0)), "the mode count never reached the solver");
 }
 
 #[test]
 fn invalid_value_is_refused_with_a_message() {
     let (mut h, _sim) = harness("cantilever");
     h.run();
-    type_into(&mut h, "time step", "-3");
+    type_into(&mut h, "k_B (bending)", "-3");
     assert!(h.state().actions.iter().all(|a| !matches!(a, UiAction::SetParam(..))), "nothing sent");
-    let err = h.state().panel.error("step").expect("an error is recorded").to_string();
+    let err = h.state().panel.error("k_bend").expect("an error is recorded").to_string();
     assert!(err.contains("outside the allowed range"), "{err}");
     h.get_by_label_contains("outside the allowed range");
-    type_into(&mut h, "time step", "abc");
-    assert!(h.state().panel.error("step").is_some_and(|e| e.contains("not a number")));
+    type_into(&mut h, "modes", "2.5");
+    assert!(h.state().panel.error("modes").is_some_and(|e| e.contains("whole number")));
+    type_into(&mut h, "k_B (bending)", "abc");
+    assert!(h.state().panel.error("k_bend").is_some_and(|e| e.contains("not a number")));
 }
