@@ -12,8 +12,11 @@
 //! constraints `X_i + u_i(q) = p*` are linearised about the current rotations
 //! (`J = B(w_i) Φ_i`, with `B` the warp operator, or `Φ_i` for LMA); orientation constraints
 //! `Ψ_i q = w*` are linear. The multipliers solve the damped least-squares system
-//! `(J D Jᵀ + ε I) μ = t − J q̂` with `ε = damping · trace(J D Jᵀ) / rows`: exact when the modes can
-//! meet every target, the closest compromise (no blow-up) when a drag over-determines them.
+//! `(J D Jᵀ + ε I) μ = t − J q̂` with `ε = damping · trace(J D Jᵀ) / rows` — equivalently, each drag
+//! is a stiff implicit spring of compliance `ε`. With the default `damping = 1e-2` a reachable target
+//! is met to about 1%, and an unreachable one (a drag that over-determines the few modes) settles at
+//! the closest compromise instead of thrashing: re-linearising `B` every step with a hard constraint
+//! (`damping → 0`) makes such drags oscillate wildly (energy 3 J → 1700 J on the cantilever).
 
 use glam::{DMat3, DVec3};
 use nalgebra::{DMatrix, DVector};

@@ -117,7 +117,7 @@ impl ModalSolver {
             step: PARAMS[8].check(s.step.unwrap_or(1.0 / 30.0))?,
             alpha: s.rayleigh_alpha,
             beta: s.rayleigh_beta,
-            constraint_damping: 1e-6,
+            constraint_damping: 1e-2,
         };
         let mut solver = Self {
             method: if warp { MWTS.name } else { LMA.name },
