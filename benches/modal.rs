@@ -19,7 +19,7 @@ fn precompute(c: &mut Criterion) {
         mesh: &setup.mesh,
         anchors: &setup.anchors,
         masses: &masses,
-        stiffness: ShellStiffness { k_area: m.k_area, k_length: m.k_length, k_bend: m.k_bend },
+        stiffness: ShellStiffness::from(m),
         modes: 4,
     };
     let mut group = c.benchmark_group("creature precompute");

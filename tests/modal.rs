@@ -24,13 +24,7 @@ fn strip(length: f64, width: f64, segments: [usize; 2], extra: &[&str]) -> Setup
 
 fn problem<'a>(s: &'a Setup, masses: &'a [f64], modes: usize) -> ModalProblem<'a> {
     let m = &s.scene.material;
-    ModalProblem {
-        mesh: &s.mesh,
-        anchors: &s.anchors,
-        masses,
-        stiffness: ShellStiffness { k_area: m.k_area, k_length: m.k_length, k_bend: m.k_bend },
-        modes,
-    }
+    ModalProblem { mesh: &s.mesh, anchors: &s.anchors, masses, stiffness: ShellStiffness::from(m), modes }
 }
 
 #[test]

@@ -47,7 +47,7 @@ pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
         mesh: &setup.mesh,
         anchors: &setup.anchors,
         masses: &masses,
-        stiffness: ShellStiffness { k_area: m.k_area, k_length: m.k_length, k_bend: m.k_bend },
+        stiffness: ShellStiffness::from(m),
         modes: args.modes.unwrap_or(setup.scene.solver.modes),
     };
     let bar = indicatif::ProgressBar::new(100).with_message("modal analysis");

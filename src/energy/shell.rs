@@ -30,6 +30,13 @@ pub struct ShellStiffness {
     pub k_bend: f64,
 }
 
+impl From<&crate::scene::Material> for ShellStiffness {
+    /// The shell stiffnesses a scene's material names.
+    fn from(m: &crate::scene::Material) -> Self {
+        Self { k_area: m.k_area, k_length: m.k_length, k_bend: m.k_bend }
+    }
+}
+
 impl ShellStiffness {
     fn check(&self) -> Result<(), EnergyError> {
         for (name, value) in [("k_area", self.k_area), ("k_length", self.k_length), ("k_bend", self.k_bend)] {

@@ -63,7 +63,7 @@ impl ShellModel {
     /// Build from a realised scene.
     pub fn new(setup: &Setup) -> Result<Self, SolverError> {
         let m = &setup.scene.material;
-        let k = ShellStiffness { k_area: m.k_area, k_length: m.k_length, k_bend: m.k_bend };
+        let k = ShellStiffness::from(m);
         let shell = DiscreteShell::new(&setup.mesh, k).map_err(|e| SolverError::Numerical(e.to_string()))?;
         let anchored = setup.anchored_mask();
         let dofs = DofMap::without(&anchored);

@@ -107,7 +107,7 @@ impl ModalSolver {
     pub fn new(setup: &Setup, warp: bool) -> Result<Self, SolverError> {
         let m = &setup.scene.material;
         let s = &setup.scene.solver;
-        let stiffness = ShellStiffness { k_area: m.k_area, k_length: m.k_length, k_bend: m.k_bend };
+        let stiffness = ShellStiffness::from(m);
         let mesh = Arc::new(setup.mesh.clone());
         let anchors = Arc::new(setup.anchors.clone());
         let area = setup.mesh.vertex_areas();
