@@ -86,3 +86,29 @@ fn broken_scene_file_is_reported_with_its_path() {
     assert!(err.contains("bad.toml:7:1:") && err.contains("stepp"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn no_gpu_adapter_and_no_display_are_one_clear_line() {
+    // Restricting wgpu to a backend this platform does not have leaves no adapter at all.
+    let out = Command::new(env!("CARGO_BIN_EXE_shellwarp"))
+        .args(["render", "--scene", "cantilever", "--frames", "0", "--out"])
+        .arg(std::env::temp_dir().join("shellwarp-no-gpu.png"))
+        .env("WGPU_BACKEND", "dx12")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("no GPU adapter found"), "{err}");
+
+    let out = Command::new(env!("CARGO_BIN_EXE_shellwarp"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("opening the display"), "{err}");
+}
