@@ -24,8 +24,7 @@ impl Strip {
         let text = format!(
             r#"
 name = "test strip"
-[mesh]
-generator = "grid"
+[mesh.grid]
 size = [{total}, {width}]
 segments = [{cells}, {across}]
 [material]
