@@ -1,11 +1,20 @@
-//! A modal basis: eigenvalues, mode shapes `Φ` and modal rotations `Ψ = WΦ`, stored mode by mode
-//! (each column a contiguous `3n` array) so that `Φq`, `Ψq` and `Φᵀf` are vectorised AXPYs and dot
-//! products over long arrays.
+//! A modal basis: eigenvalues, mode shapes `Φ` and modal rotations `Ψ = WΦ`.
+//!
+//! Stored for the per-step pass ([`super::kernel`]): vertices in chunks of [`LANES`], and within a
+//! chunk mode by mode and axis by axis, each row `LANES` values wide (`[chunk][mode][axis][lane]`). A
+//! step streams once through both arrays, a chunk at a time, with the lanes in SIMD registers. The
+//! last chunk is padded with zero rows.
 
 use glam::DVec3;
 
 use super::rotation::RotationOperator;
 use crate::mesh::TriMesh;
+
+/// Vertices per chunk: the SIMD width of the per-step pass (two AVX2 registers of `f64`).
+pub const LANES: usize = 8;
+
+/// One chunk's three axes of one mode (or of one vector), `LANES` vertices each.
+pub type Rows = [[f64; LANES]; 3];
 
 /// `m` vibration modes of a shell. Shapes are mass-normalised (`Φᵀ M Φ = I`); anchored vertices
 /// have zero rows.
@@ -13,11 +22,22 @@ use crate::mesh::TriMesh;
 pub struct ModalBasis {
     /// Eigenvalues `λ_j = ω_j²`, ascending, 1/s².
     pub eigenvalues: Vec<f64>,
-    /// `Φ` as `[mode · 3n + vertex · 3 + axis]`.
-    phi: Vec<f64>,
+    /// `Φ` as `[chunk][mode][axis][lane]`.
+    phi: Vec<Rows>,
     /// `Ψ = WΦ` in the same layout.
-    psi: Vec<f64>,
+    psi: Vec<Rows>,
     modes: usize,
+    vertices: usize,
+}
+
+/// Index of `(vertex, mode)` in the chunked layout of `modes` modes.
+fn index(modes: usize, v: usize, mode: usize) -> usize {
+    v / LANES * modes + mode
+}
+
+/// Number of chunks of `LANES` vertices that hold `n` vertices.
+pub fn chunks(n: usize) -> usize {
+    n.div_ceil(LANES)
 }
 
 impl ModalBasis {
@@ -26,18 +46,18 @@ impl ModalBasis {
         let m = eigenvalues.len();
         let n = mesh.vertex_count();
         let w = RotationOperator::new(mesh);
-        let mut phi = vec![0.0; n * 3 * m];
-        let mut psi = vec![0.0; n * 3 * m];
+        let len = chunks(n) * m;
+        let (mut phi, mut psi) = (vec![[[0.0; LANES]; 3]; len], vec![[[0.0; LANES]; 3]; len]);
         for (j, shape) in shapes.iter().enumerate() {
             let rot = w.apply(shape);
             for v in 0..n {
                 for a in 0..3 {
-                    phi[j * 3 * n + 3 * v + a] = shape[v][a];
-                    psi[j * 3 * n + 3 * v + a] = rot[v][a];
+                    phi[index(m, v, j)][a][v % LANES] = shape[v][a];
+                    psi[index(m, v, j)][a][v % LANES] = rot[v][a];
                 }
             }
         }
-        Self { eigenvalues, phi, psi, modes: m }
+        Self { eigenvalues, phi, psi, modes: m, vertices: n }
     }
 
     /// Number of modes `m`.
@@ -47,7 +67,7 @@ impl ModalBasis {
 
     /// Number of vertices.
     pub fn vertex_count(&self) -> usize {
-        self.phi.len() / (3 * self.modes.max(1))
+        self.vertices
     }
 
     /// Natural frequencies `ω_j / 2π`, Hz.
@@ -57,69 +77,43 @@ impl ModalBasis {
 
     /// Linear displacement of vertex `v`, `Φ_v q`.
     pub fn displacement(&self, v: usize, q: &[f64]) -> DVec3 {
-        vertex_times(&self.phi, self.vertex_count(), v, q)
+        self.vertex_times(&self.phi, v, q)
     }
 
     /// Rotation vector of vertex `v`, `Ψ_v q`.
     pub fn rotation(&self, v: usize, q: &[f64]) -> DVec3 {
-        vertex_times(&self.psi, self.vertex_count(), v, q)
+        self.vertex_times(&self.psi, v, q)
     }
 
     /// Entry `Φ[v, axis, mode]`.
     pub fn phi(&self, v: usize, axis: usize, mode: usize) -> f64 {
-        self.phi[mode * 3 * self.vertex_count() + 3 * v + axis]
+        self.phi[index(self.modes, v, mode)][axis][v % LANES]
     }
 
     /// Entry `Ψ[v, axis, mode]`.
     pub fn psi(&self, v: usize, axis: usize, mode: usize) -> f64 {
-        self.psi[mode * 3 * self.vertex_count() + 3 * v + axis]
+        self.psi[index(self.modes, v, mode)][axis][v % LANES]
     }
 
-    /// Column `mode` of `Φ` (`3n` values, vertex-major).
-    pub fn phi_column(&self, mode: usize) -> &[f64] {
-        let n3 = 3 * self.vertex_count();
-        &self.phi[mode * n3..(mode + 1) * n3]
-    }
-
-    /// Column `mode` of `Ψ`.
-    pub fn psi_column(&self, mode: usize) -> &[f64] {
-        let n3 = 3 * self.vertex_count();
-        &self.psi[mode * n3..(mode + 1) * n3]
-    }
-
-    /// `Φ q` into `out` (`3n` values).
-    pub fn combine_phi(&self, q: &[f64], out: &mut [f64]) {
-        combine(&self.phi, q, out);
-    }
-
-    /// `Ψ q` into `out` (`3n` values).
-    pub fn combine_psi(&self, q: &[f64], out: &mut [f64]) {
-        combine(&self.psi, q, out);
+    /// Chunk `c` of `Φ` and of `Ψ`: one [`Rows`] per mode.
+    pub fn chunk(&self, c: usize) -> (&[Rows], &[Rows]) {
+        let m = self.modes;
+        (&self.phi[c * m..(c + 1) * m], &self.psi[c * m..(c + 1) * m])
     }
 
     /// Least-squares coordinates of a displacement field in this basis (`Φᵀ M u` for mass `M`).
     pub fn project(&self, masses: &[f64], u: &[DVec3]) -> Vec<f64> {
         (0..self.modes)
             .map(|j| {
-                let col = self.phi_column(j);
-                u.iter()
-                    .zip(masses)
-                    .enumerate()
-                    .map(|(v, (uv, mv))| mv * uv.dot(DVec3::from_slice(&col[3 * v..])))
-                    .sum()
+                let phi = |v: usize| DVec3::new(self.phi(v, 0, j), self.phi(v, 1, j), self.phi(v, 2, j));
+                u.iter().zip(masses).enumerate().map(|(v, (uv, mv))| mv * uv.dot(phi(v))).sum()
             })
             .collect()
     }
-}
 
-fn vertex_times(data: &[f64], n: usize, v: usize, q: &[f64]) -> DVec3 {
-    q.iter().enumerate().fold(DVec3::ZERO, |acc, (j, qj)| acc + DVec3::from_slice(&data[j * 3 * n + 3 * v..]) * *qj)
-}
-
-/// `Σ_j q_j · column_j` of a column-major matrix with `out.len()` rows.
-fn combine(data: &[f64], q: &[f64], out: &mut [f64]) {
-    out.fill(0.0);
-    for (col, &qj) in data.chunks_exact(out.len()).zip(q) {
-        out.iter_mut().zip(col).for_each(|(o, c)| *o += qj * c);
+    fn vertex_times(&self, data: &[Rows], v: usize, q: &[f64]) -> DVec3 {
+        let k = v % LANES;
+        let at = |j: usize| data[index(self.modes, v, j)].map(|row| row[k]);
+        q.iter().enumerate().fold(DVec3::ZERO, |acc, (j, qj)| acc + DVec3::from_array(at(j)) * *qj)
     }
 }

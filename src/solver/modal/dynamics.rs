@@ -22,7 +22,8 @@ use glam::{DMat3, DVec3};
 use nalgebra::{DMatrix, DVector};
 
 use super::basis::ModalBasis;
-use super::warp::{coefficients, rotate_back, warp, warp_operator};
+use super::kernel::{ChunkedVectors, VertexPass};
+use super::warp::warp_operator;
 use crate::solver::{DragKind, DragSet};
 
 /// Time-stepping parameters of the modal oscillators.
@@ -50,19 +51,18 @@ pub struct ModalDynamics {
     /// Whether to warp (MWTS) or not (LMA).
     pub warp: bool,
     rest: Vec<DVec3>,
-    /// External force per vertex (gravity · mass + point loads), N.
-    forces: Vec<DVec3>,
+    /// Rest positions for the per-vertex pass.
+    rest_chunks: ChunkedVectors,
+    /// External force per vertex (gravity · mass + point loads), N, for the per-vertex pass.
+    forces: ChunkedVectors,
     /// Modal force `g = Φᵀ R̃ᵀ f` at the current rotations (computed with the positions).
     force: Vec<f64>,
-    /// Work arrays of `3n` values (kept to avoid allocating every step).
-    scratch_lin: Vec<f64>,
-    scratch_rot: Vec<f64>,
     /// Current positions.
     positions: Vec<DVec3>,
 }
 
 impl ModalDynamics {
-    /// Start at rest.
+    /// Start at rest, under per-vertex external `forces` (missing trailing vertices get none).
     pub fn new(basis: ModalBasis, rest: Vec<DVec3>, forces: Vec<DVec3>, warp: bool) -> Self {
         let m = basis.modes();
         let mut dynamics = Self {
@@ -71,11 +71,10 @@ impl ModalDynamics {
             v: vec![0.0; m],
             warp,
             positions: rest.clone(),
+            rest_chunks: ChunkedVectors::new(&rest, rest.len()),
+            forces: ChunkedVectors::new(&forces, rest.len()),
             rest,
-            forces,
             force: vec![0.0; m],
-            scratch_lin: Vec::new(),
-            scratch_rot: Vec::new(),
         };
         dynamics.update_positions();
         dynamics
@@ -86,9 +85,9 @@ impl ModalDynamics {
         &self.positions
     }
 
-    /// Replace the external forces (after a gravity or density change).
+    /// Replace the external forces (after a gravity or density change; missing vertices get none).
     pub fn set_forces(&mut self, forces: Vec<DVec3>) {
-        self.forces = forces;
+        self.forces = ChunkedVectors::new(&forces, self.rest.len());
         self.update_positions();
     }
 
@@ -100,6 +99,7 @@ impl ModalDynamics {
         let (u, du) = (lin(&self.q), lin(&self.v));
         self.q = basis.project(masses, &u);
         self.v = basis.project(masses, &du);
+        self.force = vec![0.0; basis.modes()];
         self.basis = basis;
         self.update_positions();
     }
@@ -186,49 +186,20 @@ impl ModalDynamics {
         }
     }
 
-    /// Recompute the positions from `q`, and with them the modal force at the new rotations:
-    /// `Φq` and `Ψq` as column combinations, the warp per vertex, then `g = Φᵀ(R̃ᵀf)` as dot products.
-    /// This is the whole per-vertex cost of a step.
+    /// Recompute the positions from `q`, and with them the modal force at the new rotations, in one
+    /// pass over the vertices ([`VertexPass`]): the whole per-vertex cost of a step.
     fn update_positions(&mut self) {
-        let n3 = 3 * self.rest.len();
-        let mut lin = std::mem::take(&mut self.scratch_lin);
-        let mut rot = std::mem::take(&mut self.scratch_rot);
-        lin.resize(n3, 0.0);
-        rot.resize(n3, 0.0);
-        self.basis.combine_phi(&self.q, &mut lin);
-        if self.warp {
-            self.basis.combine_psi(&self.q, &mut rot);
+        VertexPass {
+            basis: &self.basis,
+            q: &self.q,
+            rest: &self.rest_chunks,
+            forces: &self.forces,
+            warp: self.warp,
+            positions: &mut self.positions,
+            force: &mut self.force,
         }
-        // `rot` is reused for the rotated-back forces once each vertex's rotation has been read.
-        for (i, ((x, rest), f)) in self.positions.iter_mut().zip(&self.rest).zip(&self.forces).enumerate() {
-            let l = DVec3::from_slice(&lin[3 * i..]);
-            let (u, local) = if self.warp {
-                let w = DVec3::from_slice(&rot[3 * i..]);
-                let k = coefficients(w.length_squared());
-                (warp(w, k, l), rotate_back(w, k, *f))
-            } else {
-                (l, *f)
-            };
-            *x = *rest + u;
-            local.write_to_slice(&mut rot[3 * i..]);
-        }
-        self.force = (0..self.basis.modes()).map(|j| dot(self.basis.phi_column(j), &rot)).collect();
-        self.scratch_lin = lin;
-        self.scratch_rot = rot;
+        .run();
     }
-}
-
-/// Dot product with eight independent partial sums, so the reduction vectorises.
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let mut acc = [0.0; 8];
-    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let tail: f64 = ca.remainder().iter().zip(cb.remainder()).map(|(x, y)| x * y).sum();
-    for (x, y) in ca.zip(cb) {
-        for k in 0..8 {
-            acc[k] += x[k] * y[k];
-        }
-    }
-    acc.iter().sum::<f64>() + tail
 }
 
 #[cfg(test)]

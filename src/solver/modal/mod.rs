@@ -4,6 +4,7 @@ pub mod basis;
 pub mod cache;
 pub mod compute;
 pub mod dynamics;
+pub mod kernel;
 pub mod method;
 pub mod rotation;
 pub mod warp;
