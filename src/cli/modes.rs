@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use serde::Serialize;
 use shellwarp::energy::ShellStiffness;
-use shellwarp::solver::modal::compute::{ModalProblem, PrecomputeTimings, analyse};
+use shellwarp::solver::modal::compute::{EIGEN_BLOCK, ModalProblem, PrecomputeTimings, analyse};
 
 use super::SceneArgs;
 
@@ -33,7 +33,8 @@ struct Report {
     frequencies_hz: Vec<f64>,
     relative_residuals: Vec<f64>,
     lambda_max_bound: f64,
-    linear_solves: usize,
+    block_solves: usize,
+    vectors_per_block: usize,
     seconds: PrecomputeTimings,
     total_seconds: f64,
 }
@@ -67,7 +68,8 @@ pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
         frequencies_hz: a.basis.frequencies_hz(),
         relative_residuals: a.residuals.clone(),
         lambda_max_bound: a.lambda_max,
-        linear_solves: a.solves,
+        block_solves: a.solves,
+        vectors_per_block: EIGEN_BLOCK,
         seconds: t,
         total_seconds: t.assembly + t.factorisation + t.eigen,
     };
@@ -83,11 +85,12 @@ pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
         println!("{j:>5} {l:>14.6e} {f:>12.5} {r:>12.2e}");
     }
     println!(
-        "precompute: assembly {:.1} ms, factorisation {:.1} ms, eigen {:.1} ms ({} solves), total {:.1} ms",
+        "precompute: assembly {:.1} ms, factorisation {:.1} ms, eigen {:.1} ms ({} block solves of {}), total {:.1} ms",
         t.assembly * 1e3,
         t.factorisation * 1e3,
         t.eigen * 1e3,
-        report.linear_solves,
+        report.block_solves,
+        report.vectors_per_block,
         report.total_seconds * 1e3
     );
     Ok(ExitCode::SUCCESS)

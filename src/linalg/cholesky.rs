@@ -89,16 +89,25 @@ impl SparseCholesky {
 
     /// Solve `A x = b` in place with the last successful factorisation.
     pub fn solve(&self, b: &mut [f64]) -> Result<(), LinalgError> {
+        self.solve_many(b, 1)
+    }
+
+    /// Solve `A X = B` in place for `columns` right-hand sides stored column after column in `b`
+    /// (one pass over the factor for all of them).
+    pub fn solve_many(&self, b: &mut [f64], columns: usize) -> Result<(), LinalgError> {
         if !self.factored {
             return Err(LinalgError::NotPositiveDefinite("no successful factorisation to solve with".into()));
         }
-        let n = b.len();
-        let need = self.symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
+        let n = self.symbolic.nrows();
+        if columns == 0 || b.len() != n * columns {
+            return Err(LinalgError::BadRhs { len: b.len(), rows: n, columns });
+        }
+        let need = self.symbolic.solve_in_place_scratch::<f64>(columns, Par::Seq);
         let mut scratch =
             MemBuffer::try_new(need).map_err(|_| LinalgError::NotPositiveDefinite("out of memory".into()))?;
         LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
             Conj::No,
-            MatMut::from_column_major_slice_mut(b, n, 1),
+            MatMut::from_column_major_slice_mut(b, n, columns),
             Par::Seq,
             MemStack::new(&mut scratch),
         );

@@ -25,6 +25,16 @@ pub enum LinalgError {
     /// The symbolic factorisation failed (out of memory, index overflow).
     #[error("symbolic factorisation failed: {0}")]
     Symbolic(String),
+    /// Right-hand sides that do not fit the matrix.
+    #[error("right-hand side of {len} values does not hold {columns} columns of {rows} rows")]
+    BadRhs {
+        /// Values given.
+        len: usize,
+        /// Rows of the matrix.
+        rows: usize,
+        /// Columns asked for.
+        columns: usize,
+    },
     /// The matrix is not (numerically) positive definite.
     #[error("matrix is not positive definite: {0}")]
     NotPositiveDefinite(String),

@@ -13,7 +13,7 @@ use glam::DVec3;
 use super::basis::ModalBasis;
 use super::compute::{ModalAnalysis, ModalProblem, PrecomputeTimings};
 
-const MAGIC: &[u8; 8] = b"SWMODES3";
+const MAGIC: &[u8; 8] = b"SWMODES4";
 
 /// FNV-1a, 64 bit: stable across builds and platforms (unlike `std`'s hasher).
 fn fnv(bytes: impl IntoIterator<Item = u8>, mut h: u64) -> u64 {

@@ -57,13 +57,19 @@ pub struct ModalAnalysis {
     pub rigid_modes: usize,
     /// Stage timings.
     pub timings: PrecomputeTimings,
-    /// Linear solves the eigen iteration used.
+    /// Block solves (passes over the Cholesky factor) the eigen iteration used, of [`EIGEN_BLOCK`]
+    /// vectors each.
     pub solves: usize,
 }
 
 /// Relative residual accepted for a returned eigenpair (or the round-off floor `64 ε λ_max / λ` where
 /// that is larger: a stiff membrane with a soft bending mode cannot be resolved better in f64).
 pub const MAX_RESIDUAL: f64 = 1e-8;
+
+/// Vectors per Lanczos block. One pass over the Cholesky factor solves them all for little more than
+/// the cost of one (the single-vector solve is memory bound: 114 MB of factor per pass on the
+/// creature); on the creature at 4 modes, 12 block solves replace 23 single ones.
+pub const EIGEN_BLOCK: usize = 4;
 
 fn numerical(e: impl std::fmt::Display) -> SolverError {
     SolverError::Numerical(e.to_string())
@@ -113,23 +119,24 @@ pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<Mod
     let pairs = lowest_modes(
         &mass,
         wanted,
-        |x, y| {
-            y.copy_from_slice(x);
-            chol.solve(y).map_err(|e| e.to_string())
-        },
-        LanczosOptions { shift, tolerance: 1e-13, ..Default::default() },
+        |x, b| chol.solve_many(x, b).map_err(|e| e.to_string()),
+        LanczosOptions { shift, tolerance: 1e-13, block: EIGEN_BLOCK, ..Default::default() },
     )
     .map_err(numerical)?;
     progress(0.9);
     // Relative residuals with the unshifted K.
     let mut kphi = vec![0.0; dim];
-    let mut residuals = Vec::with_capacity(wanted);
-    for (lambda, phi) in pairs.values.iter().zip(&pairs.vectors) {
-        k.multiply(Some(&k_values), phi, &mut kphi);
-        let r2: f64 = kphi.iter().zip(phi).zip(&mass).map(|((kp, p), m)| (kp - lambda * m * p).powi(2)).sum();
-        let k2: f64 = kphi.iter().map(|x| x * x).sum();
-        residuals.push(if k2 > 0.0 { (r2 / k2).sqrt() } else { r2.sqrt() });
-    }
+    let residuals: Vec<f64> = pairs
+        .values
+        .iter()
+        .zip(&pairs.vectors)
+        .map(|(&lambda, phi)| {
+            k.multiply(Some(&k_values), phi, &mut kphi);
+            let r2: f64 = kphi.iter().zip(phi).zip(&mass).map(|((kp, p), m)| (kp - lambda * m * p).powi(2)).sum();
+            let k2: f64 = kphi.iter().map(|x| x * x).sum();
+            if k2 > 0.0 { (r2 / k2).sqrt() } else { r2.sqrt() }
+        })
+        .collect();
     let scale = pairs.values.last().copied().unwrap_or(1.0).abs().max(f64::MIN_POSITIVE);
     // No double-precision vector can do better than ε·λ_max/λ (its rounding excites the stiffest
     // modes); λ_max ≤ max_i Σ_j |K_ij| / M_ii (Gershgorin).
@@ -162,7 +169,7 @@ pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<Mod
         rigid_modes,
         lambda_max,
         timings: PrecomputeTimings { assembly, factorisation, eigen },
-        solves: pairs.solves,
+        solves: pairs.block_solves,
     })
 }
 
