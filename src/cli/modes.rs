@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use serde::Serialize;
 use shellwarp::energy::ShellStiffness;
-use shellwarp::solver::modal::compute::{EIGEN_BLOCK, ModalProblem, PrecomputeTimings, analyse};
+use shellwarp::solver::modal::compute::{EIGEN_BLOCK, MAX_RESIDUAL, ModalProblem, PrecomputeTimings, analyse};
 
 use super::SceneArgs;
 
@@ -32,6 +32,8 @@ struct Report {
     eigenvalues: Vec<f64>,
     frequencies_hz: Vec<f64>,
     relative_residuals: Vec<f64>,
+    /// Modes whose residual is above 1e-8, accepted only within the round-off floor.
+    above_target: Vec<usize>,
     lambda_max_bound: f64,
     block_solves: usize,
     vectors_per_block: usize,
@@ -67,6 +69,7 @@ pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
         eigenvalues: a.basis.eigenvalues.clone(),
         frequencies_hz: a.basis.frequencies_hz(),
         relative_residuals: a.residuals.clone(),
+        above_target: a.above_target().iter().map(|(j, _)| *j).collect(),
         lambda_max_bound: a.lambda_max,
         block_solves: a.solves,
         vectors_per_block: EIGEN_BLOCK,
@@ -82,7 +85,14 @@ pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
     for (j, ((l, f), r)) in
         report.eigenvalues.iter().zip(&report.frequencies_hz).zip(&report.relative_residuals).enumerate()
     {
-        println!("{j:>5} {l:>14.6e} {f:>12.5} {r:>12.2e}");
+        let flag = if report.above_target.contains(&j) { " *" } else { "" };
+        println!("{j:>5} {l:>14.6e} {f:>12.5} {r:>12.2e}{flag}");
+    }
+    for (j, floor) in a.above_target() {
+        println!(
+            "* mode {j}: residual above {MAX_RESIDUAL:.0e}: it stopped improving at round-off, under the bound \
+             64ε·λmax/λ = {floor:.1e} (no f64 vector does better; see the docs of MAX_RESIDUAL)"
+        );
     }
     println!(
         "precompute: assembly {:.1} ms, factorisation {:.1} ms, eigen {:.1} ms ({} block solves of {}), total {:.1} ms",

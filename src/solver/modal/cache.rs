@@ -1,9 +1,9 @@
 //! On-disk cache of modal analyses, keyed by a hash of everything the modes depend on (mesh,
 //! anchors, masses, stiffnesses, mode count), so a scene reopens without recomputing.
 //!
-//! Location: `$SHELLWARP_CACHE_DIR`, else `$XDG_CACHE_HOME/shellwarp`, else `~/.cache/shellwarp`.
-//! Files are written atomically (temporary file, then rename); an unreadable or mismatched file is
-//! ignored and recomputed, never trusted.
+//! Default location ([`Cache::from_env`]): `$SHELLWARP_CACHE_DIR`, else `$XDG_CACHE_HOME/shellwarp`,
+//! else `~/.cache/shellwarp`. Files are written atomically (temporary file, then rename); an
+//! unreadable or mismatched file is ignored and recomputed, never trusted.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -14,6 +14,9 @@ use super::basis::ModalBasis;
 use super::compute::{ModalAnalysis, ModalProblem, PrecomputeTimings};
 
 const MAGIC: &[u8; 8] = b"SWMODES4";
+
+/// FNV-1a's 64-bit offset basis.
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
 
 /// FNV-1a, 64 bit: stable across builds and platforms (unlike `std`'s hasher).
 fn fnv(bytes: impl IntoIterator<Item = u8>, mut h: u64) -> u64 {
@@ -27,7 +30,7 @@ fn fnv(bytes: impl IntoIterator<Item = u8>, mut h: u64) -> u64 {
 /// The cache key of a problem.
 pub fn key(p: &ModalProblem<'_>) -> u64 {
     let f = |x: f64| x.to_le_bytes();
-    let mut h = fnv(*MAGIC, 0xcbf2_9ce4_8422_2325);
+    let mut h = fnv(*MAGIC, FNV_OFFSET);
     h = fnv(p.mesh.positions().iter().flat_map(|v| v.to_array()).flat_map(f), h);
     h = fnv(p.mesh.triangles().iter().flatten().flat_map(|&i| (i as u64).to_le_bytes()), h);
     h = fnv(p.anchors.iter().flat_map(|&i| (i as u64).to_le_bytes()), h);
@@ -37,21 +40,68 @@ pub fn key(p: &ModalProblem<'_>) -> u64 {
     fnv((p.modes as u64).to_le_bytes(), h)
 }
 
-fn dir() -> Option<PathBuf> {
-    let env = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
-    env("SHELLWARP_CACHE_DIR")
-        .or_else(|| env("XDG_CACHE_HOME").map(|d| d.join("shellwarp")))
-        .or_else(|| env("HOME").map(|d| d.join(".cache/shellwarp")))
+/// Where analyses are cached (or that they are not).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Cache {
+    dir: Option<PathBuf>,
 }
 
-fn path(p: &ModalProblem<'_>) -> Option<PathBuf> {
-    Some(dir()?.join(format!("modes-{:016x}.bin", key(p))))
+impl Cache {
+    /// The default location from the environment (see the module documentation); none if no
+    /// variable is set.
+    pub fn from_env() -> Self {
+        let env = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+        let dir = env("SHELLWARP_CACHE_DIR")
+            .or_else(|| env("XDG_CACHE_HOME").map(|d| d.join("shellwarp")))
+            .or_else(|| env("HOME").map(|d| d.join(".cache/shellwarp")));
+        Self { dir }
+    }
+
+    /// Cache in `dir` (created on first store).
+    pub fn at(dir: impl Into<PathBuf>) -> Self {
+        Self { dir: Some(dir.into()) }
+    }
+
+    /// No caching: every analysis is computed.
+    pub fn disabled() -> Self {
+        Self { dir: None }
+    }
+
+    /// The file that holds (or would hold) the analysis of `p`.
+    pub fn path(&self, p: &ModalProblem<'_>) -> Option<PathBuf> {
+        Some(self.dir.as_ref()?.join(format!("modes-{:016x}.bin", key(p))))
+    }
+
+    /// A cached analysis of this problem, if there is a valid one.
+    pub fn load(&self, p: &ModalProblem<'_>) -> Option<ModalAnalysis> {
+        decode(p, &std::fs::read(self.path(p)?).ok()?)
+    }
+
+    /// Store an analysis (best effort: a cache that cannot be written is silently skipped).
+    pub fn store(&self, p: &ModalProblem<'_>, a: &ModalAnalysis) {
+        let Some(path) = self.path(p) else { return };
+        let bytes = encode(p, a);
+        let write = || -> std::io::Result<()> {
+            let parent = path.parent().ok_or(std::io::ErrorKind::NotFound)?;
+            std::fs::create_dir_all(parent)?;
+            let tmp = parent.join(format!(".{}.{}.tmp", key(p), std::process::id()));
+            let mut f = std::fs::File::create(&tmp)?;
+            f.write_all(&bytes)?;
+            f.sync_all()?;
+            std::fs::rename(&tmp, &path)
+        };
+        let _ = write();
+    }
 }
 
-/// A cached analysis of this problem, if there is a valid one.
-pub fn load(p: &ModalProblem<'_>) -> Option<ModalAnalysis> {
-    let bytes = std::fs::read(path(p)?).ok()?;
-    let rest = bytes.strip_prefix(MAGIC)?;
+/// The analysis in `bytes`, if they are a valid encoding of one for `p`: the right magic, key and
+/// checksum (FNV-1a of everything before it), sizes that fit `p`, and finite values.
+fn decode(p: &ModalProblem<'_>, bytes: &[u8]) -> Option<ModalAnalysis> {
+    let (body, sum) = bytes.split_at_checked(bytes.len().checked_sub(8)?)?;
+    if fnv(body.iter().copied(), FNV_OFFSET).to_le_bytes() != sum {
+        return None;
+    }
+    let rest = body.strip_prefix(MAGIC)?.strip_prefix(&key(p).to_le_bytes()[..])?;
     let words: Vec<f64> = rest.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8]))).collect();
     let n = p.mesh.vertex_count();
     let (m, rigid, solves) = (*words.first()? as usize, *words.get(1)? as usize, *words.get(2)? as usize);
@@ -73,9 +123,8 @@ pub fn load(p: &ModalProblem<'_>) -> Option<ModalAnalysis> {
     Some(ModalAnalysis { basis, residuals, lambda_max, rigid_modes: rigid, timings, solves })
 }
 
-/// Store an analysis (best effort: a cache that cannot be written is silently skipped).
-pub fn store(p: &ModalProblem<'_>, a: &ModalAnalysis) {
-    let Some(path) = path(p) else { return };
+/// The file contents for analysis `a` of `p`.
+fn encode(p: &ModalProblem<'_>, a: &ModalAnalysis) -> Vec<u8> {
     let n = p.mesh.vertex_count();
     let m = a.basis.modes();
     let mut words = vec![m as f64, a.rigid_modes as f64, a.solves as f64];
@@ -88,15 +137,121 @@ pub fn store(p: &ModalProblem<'_>, a: &ModalAnalysis) {
         }
     }
     let mut bytes = MAGIC.to_vec();
+    bytes.extend(key(p).to_le_bytes());
     bytes.extend(words.iter().flat_map(|w| w.to_le_bytes()));
-    let write = || -> std::io::Result<()> {
-        let parent = path.parent().ok_or(std::io::ErrorKind::NotFound)?;
-        std::fs::create_dir_all(parent)?;
-        let tmp = parent.join(format!(".{}.{}.tmp", key(p), std::process::id()));
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(&bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, &path)
-    };
-    let _ = write();
+    let sum = fnv(bytes.iter().copied(), FNV_OFFSET);
+    bytes.extend(sum.to_le_bytes());
+    bytes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::energy::ShellStiffness;
+    use crate::mesh::TriMesh;
+    use crate::mesh::generate::grid;
+    use crate::solver::modal::compute::analyse;
+
+    fn temp_cache(name: &str) -> (Cache, PathBuf) {
+        let dir = std::env::temp_dir().join(format!("shellwarp-cache-test-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        (Cache::at(&dir), dir)
+    }
+
+    struct Case {
+        mesh: TriMesh,
+        anchors: Vec<usize>,
+        masses: Vec<f64>,
+        stiffness: ShellStiffness,
+        modes: usize,
+    }
+
+    impl Case {
+        fn new() -> Self {
+            let mesh = grid([0.4, 0.1], [8, 2]).unwrap();
+            let masses = mesh.vertex_areas().iter().map(|a| 0.5 * a).collect();
+            let stiffness = ShellStiffness { k_area: 10.0, k_length: 10.0, k_bend: 0.05 };
+            Self { mesh, anchors: (0..6).collect(), masses, stiffness, modes: 3 }
+        }
+
+        fn problem(&self) -> ModalProblem<'_> {
+            let (mesh, anchors, masses) = (&self.mesh, &self.anchors, &self.masses);
+            ModalProblem { mesh, anchors, masses, stiffness: self.stiffness, modes: self.modes }
+        }
+    }
+
+    #[test]
+    fn an_analysis_comes_back_exactly() {
+        let (cache, dir) = temp_cache("round-trip");
+        let case = Case::new();
+        let p = case.problem();
+        assert!(cache.load(&p).is_none(), "empty cache");
+        let a = analyse(&p, &|_| {}).unwrap();
+        cache.store(&p, &a);
+        assert_eq!(cache.load(&p), Some(a), "bit for bit, Ψ rebuilt from Φ included");
+        assert!(Cache::disabled().load(&p).is_none() && Cache::disabled().path(&p).is_none());
+        let _ = std::fs::remove_dir_all(dir);
+    }
+
+    /// A named change to a problem.
+    type Change = (&'static str, fn(&mut Case));
+
+    /// The same vertices with every triangle's winding reversed.
+    fn flipped(mesh: &TriMesh) -> TriMesh {
+        TriMesh::new(mesh.positions().to_vec(), mesh.triangles().iter().map(|&[a, b, c]| [a, c, b]).collect()).unwrap()
+    }
+
+    #[test]
+    fn the_key_follows_everything_the_modes_depend_on() {
+        let base = Case::new();
+        let k0 = key(&base.problem());
+        assert_eq!(k0, key(&Case::new().problem()), "deterministic");
+        let changes: [Change; 8] = [
+            ("anchors", |c| c.anchors.push(6)),
+            ("k_area", |c| c.stiffness.k_area *= 1.0 + 1e-12),
+            ("k_length", |c| c.stiffness.k_length = 11.0),
+            ("k_bend", |c| c.stiffness.k_bend = 0.06),
+            ("density", |c| c.masses.iter_mut().for_each(|m| *m *= 2.0)),
+            ("mode count", |c| c.modes = 4),
+            ("positions", |c| c.mesh = c.mesh.transformed(|p| p * 1.001).unwrap()),
+            ("triangles", |c| c.mesh = flipped(&c.mesh)),
+        ];
+        for (what, change) in changes {
+            let mut case = Case::new();
+            change(&mut case);
+            assert_ne!(key(&case.problem()), k0, "{what} changes the key");
+        }
+    }
+
+    #[test]
+    fn corrupt_or_foreign_files_are_rejected() {
+        let (cache, dir) = temp_cache("corrupt");
+        let case = Case::new();
+        let p = case.problem();
+        let a = analyse(&p, &|_| {}).unwrap();
+        cache.store(&p, &a);
+        let path = cache.path(&p).unwrap();
+        let good = std::fs::read(&path).unwrap();
+        // One flipped bit anywhere (magic, key, sizes, eigenvalues, shapes, checksum), or a truncation.
+        for at in [0, 9, 20, 80, good.len() / 2, good.len() - 9, good.len() - 1] {
+            let mut bad = good.clone();
+            bad[at] ^= 0x10;
+            std::fs::write(&path, &bad).unwrap();
+            assert!(cache.load(&p).is_none(), "flipped byte {at} of {}", good.len());
+        }
+        for len in [0, 7, good.len() - 8, good.len() - 1] {
+            std::fs::write(&path, &good[..len]).unwrap();
+            assert!(cache.load(&p).is_none(), "truncated to {len}");
+        }
+        // A valid file of another problem under this problem's name.
+        let mut other = Case::new();
+        other.stiffness.k_bend = 0.07;
+        let q = other.problem();
+        cache.store(&q, &analyse(&q, &|_| {}).unwrap());
+        std::fs::copy(cache.path(&q).unwrap(), &path).unwrap();
+        assert!(cache.load(&p).is_none(), "another problem's analysis");
+        std::fs::write(&path, &good).unwrap();
+        assert!(cache.load(&p).is_some(), "the intact file loads");
+        let _ = std::fs::remove_dir_all(dir);
+    }
 }

@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::cache;
+use super::cache::Cache;
 use super::compute::{ModalAnalysis, ModalProblem, analyse};
 use super::dynamics::{ModalDynamics, ModalParams};
 use crate::energy::ShellStiffness;
@@ -83,17 +83,49 @@ struct Pending {
     progress: Arc<AtomicU32>,
 }
 
+/// Everything a modal analysis depends on, owned so that it can go to a background thread.
+#[derive(Debug, Clone)]
+struct Request {
+    cache: Cache,
+    mesh: Arc<TriMesh>,
+    anchors: Arc<Vec<usize>>,
+    /// Lumped vertex areas (masses are these times the density).
+    area: Arc<Vec<f64>>,
+    density: f64,
+    stiffness: ShellStiffness,
+    modes: usize,
+}
+
+impl Request {
+    fn masses(&self) -> Vec<f64> {
+        self.area.iter().map(|a| a * self.density).collect()
+    }
+
+    /// Cached or freshly computed (and then cached) modes.
+    fn run(&self, progress: &dyn Fn(f32)) -> Result<ModalAnalysis, SolverError> {
+        let masses = self.masses();
+        let problem = ModalProblem {
+            mesh: &self.mesh,
+            anchors: &self.anchors,
+            masses: &masses,
+            stiffness: self.stiffness,
+            modes: self.modes,
+        };
+        if let Some(a) = self.cache.load(&problem) {
+            return Ok(a);
+        }
+        let a = analyse(&problem, progress)?;
+        self.cache.store(&problem, &a);
+        Ok(a)
+    }
+}
+
 /// The modal solver (LMA or MWTS).
 pub struct ModalSolver {
     method: &'static str,
-    mesh: Arc<TriMesh>,
-    anchors: Arc<Vec<usize>>,
+    request: Request,
     loads: Vec<DVec3>,
-    area: Vec<f64>,
-    stiffness: ShellStiffness,
-    density: f64,
     gravity: DVec3,
-    modes: usize,
     params: ModalParams,
     dynamics: ModalDynamics,
     analysis: ModalAnalysis,
@@ -103,16 +135,26 @@ pub struct ModalSolver {
 }
 
 impl ModalSolver {
-    /// Build from a scene (computing or loading the modes synchronously).
+    /// Build from a scene (computing or loading the modes synchronously), caching analyses in the
+    /// default location ([`Cache::from_env`]).
     pub fn new(setup: &Setup, warp: bool) -> Result<Self, SolverError> {
+        Self::with_cache(setup, warp, Cache::from_env())
+    }
+
+    /// Build from a scene, caching analyses in `cache`.
+    pub fn with_cache(setup: &Setup, warp: bool, cache: Cache) -> Result<Self, SolverError> {
         let m = &setup.scene.material;
         let s = &setup.scene.solver;
-        let stiffness = ShellStiffness::from(m);
-        let mesh = Arc::new(setup.mesh.clone());
-        let anchors = Arc::new(setup.anchors.clone());
-        let area = setup.mesh.vertex_areas();
-        let modes = s.modes;
-        let analysis = modes_for(&mesh, &anchors, &area, m.density, stiffness, modes, &|_| {})?;
+        let request = Request {
+            cache,
+            mesh: Arc::new(setup.mesh.clone()),
+            anchors: Arc::new(setup.anchors.clone()),
+            area: Arc::new(setup.mesh.vertex_areas()),
+            density: m.density,
+            stiffness: ShellStiffness::from(m),
+            modes: s.modes,
+        };
+        let analysis = request.run(&|_| {})?;
         let params = ModalParams {
             step: PARAMS[8].check(s.step.unwrap_or(1.0 / 30.0))?,
             alpha: s.rayleigh_alpha,
@@ -121,15 +163,10 @@ impl ModalSolver {
         };
         let mut solver = Self {
             method: if warp { MWTS.name } else { LMA.name },
-            dynamics: ModalDynamics::new(analysis.basis.clone(), mesh.positions().to_vec(), Vec::new(), warp),
-            mesh,
-            anchors,
+            dynamics: ModalDynamics::new(analysis.basis.clone(), setup.mesh.positions().to_vec(), Vec::new(), warp),
+            request,
             loads: setup.loads.clone(),
-            area,
-            stiffness,
-            density: m.density,
             gravity: setup.gravity(),
-            modes,
             params,
             analysis,
             drags: DragSet::new(setup.mesh.vertex_count(), true),
@@ -145,12 +182,8 @@ impl ModalSolver {
         &self.analysis
     }
 
-    fn masses(&self) -> Vec<f64> {
-        self.area.iter().map(|a| a * self.density).collect()
-    }
-
     fn update_forces(&mut self) {
-        let masses = self.masses();
+        let masses = self.request.masses();
         let forces = masses.iter().zip(&self.loads).map(|(m, l)| self.gravity * *m + *l).collect();
         self.dynamics.set_forces(forces);
     }
@@ -159,11 +192,10 @@ impl ModalSolver {
     fn recompute(&mut self) {
         let (tx, rx) = mpsc::channel();
         let progress = Arc::new(AtomicU32::new(0));
-        let (mesh, anchors, area) = (self.mesh.clone(), self.anchors.clone(), self.area.clone());
-        let (density, stiffness, modes, p) = (self.density, self.stiffness, self.modes, progress.clone());
+        let (request, p) = (self.request.clone(), progress.clone());
         std::thread::spawn(move || {
             let report = move |f: f32| p.store(f.to_bits(), Ordering::Relaxed);
-            let _ = tx.send(modes_for(&mesh, &anchors, &area, density, stiffness, modes, &report));
+            let _ = tx.send(request.run(&report));
         });
         self.pending = Some(Pending { receiver: rx, progress });
     }
@@ -172,41 +204,33 @@ impl ModalSolver {
     fn poll_pending(&mut self) -> Result<(), SolverError> {
         let Some(p) = &self.pending else { return Ok(()) };
         match p.receiver.try_recv() {
-            Ok(result) => {
-                self.pending = None;
-                let analysis = result?;
-                let masses = self.masses();
-                self.dynamics.replace_basis(analysis.basis.clone(), &masses);
-                self.analysis = analysis;
-                Ok(())
-            }
+            Ok(result) => self.swap(result),
             Err(TryRecvError::Empty) => Ok(()),
-            Err(TryRecvError::Disconnected) => {
-                self.pending = None;
-                Err(SolverError::Numerical("the background modal analysis stopped".into()))
-            }
+            Err(TryRecvError::Disconnected) => self.swap(Err(stopped())),
         }
+    }
+
+    /// Block until a background recomputation (if any) has finished, and swap its basis in: for
+    /// deterministic runs (tests, headless renders), where the swap must not depend on timing.
+    pub fn wait_for_modes(&mut self) -> Result<(), SolverError> {
+        let Some(p) = &self.pending else { return Ok(()) };
+        let result = p.receiver.recv().unwrap_or_else(|_| Err(stopped()));
+        self.swap(result)
+    }
+
+    /// Carry the state over to a finished analysis (or report why it failed).
+    fn swap(&mut self, result: Result<ModalAnalysis, SolverError>) -> Result<(), SolverError> {
+        self.pending = None;
+        let analysis = result?;
+        let masses = self.request.masses();
+        self.dynamics.replace_basis(analysis.basis.clone(), &masses);
+        self.analysis = analysis;
+        Ok(())
     }
 }
 
-/// Cached or freshly computed modes.
-fn modes_for(
-    mesh: &TriMesh,
-    anchors: &[usize],
-    area: &[f64],
-    density: f64,
-    stiffness: ShellStiffness,
-    modes: usize,
-    progress: &dyn Fn(f32),
-) -> Result<ModalAnalysis, SolverError> {
-    let masses: Vec<f64> = area.iter().map(|a| a * density).collect();
-    let problem = ModalProblem { mesh, anchors, masses: &masses, stiffness, modes };
-    if let Some(a) = cache::load(&problem) {
-        return Ok(a);
-    }
-    let a = analyse(&problem, progress)?;
-    cache::store(&problem, &a);
-    Ok(a)
+fn stopped() -> SolverError {
+    SolverError::Numerical("the background modal analysis stopped".into())
 }
 
 impl Solver for ModalSolver {
@@ -254,14 +278,14 @@ impl Solver for ModalSolver {
 
     fn params(&self) -> Vec<ParamValue> {
         let values = [
-            self.stiffness.k_area,
-            self.stiffness.k_length,
-            self.stiffness.k_bend,
-            self.density,
+            self.request.stiffness.k_area,
+            self.request.stiffness.k_length,
+            self.request.stiffness.k_bend,
+            self.request.density,
             self.gravity.y,
             self.params.alpha,
             self.params.beta,
-            self.modes as f64,
+            self.request.modes as f64,
             self.params.step,
             self.params.constraint_damping,
         ];
@@ -272,11 +296,11 @@ impl Solver for ModalSolver {
         let value = ParamSpec::find(self.method, &PARAMS, name)?.check(value)?;
         let needs_modes = matches!(name, "k_area" | "k_length" | "k_bend" | "density" | "modes");
         match name {
-            "k_area" => self.stiffness.k_area = value,
-            "k_length" => self.stiffness.k_length = value,
-            "k_bend" => self.stiffness.k_bend = value,
-            "density" => self.density = value,
-            "modes" => self.modes = value as usize,
+            "k_area" => self.request.stiffness.k_area = value,
+            "k_length" => self.request.stiffness.k_length = value,
+            "k_bend" => self.request.stiffness.k_bend = value,
+            "density" => self.request.density = value,
+            "modes" => self.request.modes = value as usize,
             "gravity" => self.gravity.y = value,
             "rayleigh_alpha" => self.params.alpha = value,
             "rayleigh_beta" => self.params.beta = value,
@@ -302,7 +326,7 @@ impl Solver for ModalSolver {
 
     fn progress(&self) -> Option<Progress> {
         self.pending.as_ref().map(|p| Progress {
-            label: format!("computing {} modes", self.modes),
+            label: format!("computing {} modes", self.request.modes),
             fraction: f32::from_bits(p.progress.load(Ordering::Relaxed)),
         })
     }

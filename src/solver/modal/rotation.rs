@@ -1,10 +1,16 @@
-//! Linearised rotations of a shell: the rotation vector that best explains a small displacement of
-//! each triangle, and the per-vertex average of those (the operator `W` of `w = W u`).
+//! Linearised rotations of a shell: the infinitesimal rotation of each triangle's (linear)
+//! displacement field, and the per-vertex average of those (the operator `W` of `w = W u`).
 //!
-//! For a triangle with rest centroid `c̄` and `r_k = X_k − c̄`, the least-squares rotation `w_t`
-//! minimising `Σ_k |w × r_k − (u_k − ū)|²` solves `A_t w_t = Σ_k r_k × u_k` with
-//! `A_t = Σ_k (|r_k|² I − r_k r_kᵀ)` (`Σ_k r_k = 0` removes `ū`). It is exact for rigid motions,
-//! including the out-of-plane tilt that the tetrahedral ½-curl would halve.
+//! A triangle with unit normal `n` and barycentric gradients `g_k` (in its plane) carries the linear
+//! field `u(x) = Σ_k N_k(x) u_k`. Its rotation has two parts: the tilt of the normal,
+//! `w_tilt = −n × ∇(n·u) = −[n]× Σ_k g_k (n·u_k)`, and the spin about the normal, half the surface
+//! curl, `w_spin = ½ n (n · Σ_k g_k × u_k)`. So `w_t = Σ_k J_k u_k` with
+//! `J_k = ½ n nᵀ [g_k]× − [n]× g_k nᵀ` (the spec's normal-based form). It is exact for rigid motions,
+//! including the out-of-plane tilt that the tetrahedral ½-curl would halve, and — unlike the
+//! least-squares fit `min_w Σ_k |w × r_k − (u_k − ū)|²`, also exact for rigid motions — it reads no
+//! rotation into a pure strain: stretching a V-beam by 1e-3 along its axis gives the least-squares fit
+//! a spurious rotation of 2.3e-4 at some vertices, and this form exactly zero. (On the flat beam and
+//! the V-beam under gravity both give the same MWTS results to four digits.)
 
 use glam::{DMat3, DVec3};
 
@@ -15,15 +21,20 @@ pub fn cross_matrix(r: DVec3) -> DMat3 {
     DMat3::from_cols(DVec3::new(0.0, r.z, -r.y), DVec3::new(-r.z, 0.0, r.x), DVec3::new(r.y, -r.x, 0.0))
 }
 
-/// The three 3×3 blocks `J_k = A⁻¹ [r_k]×` of a triangle's rotation Jacobian `w_t = Σ_k J_k u_k`.
+/// The three 3×3 blocks `J_k = ½ n nᵀ [g_k]× − [n]× g_k nᵀ` of a triangle's rotation Jacobian
+/// `w_t = Σ_k J_k u_k` (see the module documentation). The triangle must not be degenerate (meshes
+/// reject those at load time).
 pub fn triangle_jacobian(x: [DVec3; 3]) -> [DMat3; 3] {
-    let c = (x[0] + x[1] + x[2]) / 3.0;
-    let r = x.map(|p| p - c);
-    let a = r.iter().fold(DMat3::ZERO, |a, rk| {
-        a + DMat3::from_diagonal(DVec3::splat(rk.length_squared())) - DMat3::from_cols(rk * rk.x, rk * rk.y, rk * rk.z)
-    });
-    let inv = a.inverse();
-    r.map(|rk| inv * cross_matrix(rk))
+    let n = (x[1] - x[0]).cross(x[2] - x[0]);
+    let twice_area_sq = n.length_squared();
+    let unit = n / twice_area_sq.sqrt();
+    let outer = |a: DVec3, b: DVec3| DMat3::from_cols(a * b.x, a * b.y, a * b.z);
+    // Barycentric gradient of vertex k: n × (edge opposite k, oriented k+1 → k+2) / |n|².
+    let gradient = |k: usize| n.cross(x[(k + 2) % 3] - x[(k + 1) % 3]) / twice_area_sq;
+    [0, 1, 2].map(|k| {
+        let g = gradient(k);
+        outer(unit, unit) * cross_matrix(g) * 0.5 - cross_matrix(unit) * outer(g, unit)
+    })
 }
 
 /// The linear map from vertex displacements to vertex rotation vectors (`w = W u`): each vertex takes
@@ -67,7 +78,7 @@ impl RotationOperator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::generate::grid;
+    use crate::mesh::generate::{grid, icosphere, v_beam};
 
     #[test]
     fn cross_matrix_is_the_cross_product() {
@@ -97,12 +108,47 @@ mod tests {
 
     #[test]
     fn whole_mesh_rotation_is_recovered_at_every_vertex() {
-        let mesh = grid([1.0, 0.4], [6, 3]).unwrap();
+        // Flat, creased (a 60° V: triangles of two planes meet at the crease vertices) and closed.
+        let meshes = [
+            ("flat grid", grid([1.0, 0.4], [6, 3]).unwrap()),
+            ("V-beam", v_beam(1.0, 0.3, 60.0, [8, 4]).unwrap()),
+            ("sphere", icosphere(0.5, 3).unwrap()),
+        ];
+        for (name, mesh) in meshes {
+            let op = RotationOperator::new(&mesh);
+            for w in [DVec3::new(2e-3, -1e-3, 5e-4), DVec3::new(0.0, 0.0, 1e-3), DVec3::new(-1e-3, 3e-3, 0.0)] {
+                let u: Vec<DVec3> = mesh.positions().iter().map(|&p| w.cross(p) + DVec3::Y).collect();
+                let worst = op.apply(&u).iter().map(|wi| (*wi - w).length()).fold(0.0, f64::max);
+                eprintln!("{name}, w = {w}: worst vertex error {worst:.1e}");
+                assert!(worst < 1e-13, "{name}: {worst}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_pure_stretch_has_no_rotation_and_a_bend_rotates_each_section_by_its_slope() {
+        let mesh = v_beam(1.0, 0.3, 60.0, [20, 4]).unwrap();
         let op = RotationOperator::new(&mesh);
-        let w = DVec3::new(2e-3, -1e-3, 5e-4);
-        let u: Vec<DVec3> = mesh.positions().iter().map(|&p| w.cross(p) + DVec3::Y).collect();
-        for wi in op.apply(&u) {
-            assert!((wi - w).length() < 1e-13, "{wi}");
+        // Stretching along the axis is a strain, not a rotation.
+        let stretch: Vec<DVec3> = mesh.positions().iter().map(|p| DVec3::X * 1e-3 * p.x).collect();
+        let spurious = op.apply(&stretch).iter().map(|w| w.length()).fold(0.0, f64::max);
+        eprintln!("stretch 1e-3: largest rotation {spurious:.1e}");
+        assert!(spurious < 1e-18, "{spurious}");
+        // Beam bending, plane sections rotating: u = (−(y − ȳ) κx, κx²/2, 0) rotates the section at x by
+        // κx about z (plus an axial strain −(y − ȳ)κ, which must not count). Each triangle sees the
+        // slope at its centroid, so a vertex gets the mean over its ring: exact inside, half a cell off
+        // at the two end rows.
+        let (kappa, y_mean) = (1e-3, mesh.positions().iter().map(|p| p.y).sum::<f64>() / mesh.vertex_count() as f64);
+        let bend: Vec<DVec3> = mesh
+            .positions()
+            .iter()
+            .map(|p| DVec3::new(-(p.y - y_mean) * kappa * p.x, 0.5 * kappa * p.x * p.x, 0.0))
+            .collect();
+        let h = 1.0 / 20.0;
+        for (p, w) in mesh.positions().iter().zip(op.apply(&bend)) {
+            let end = (p.x.abs() - 0.5).abs() < 1e-9;
+            let tol = if end { 0.5 * kappa * h } else { 1e-15 };
+            assert!((w - DVec3::Z * kappa * p.x).length() <= tol, "x = {}: {w} vs {}", p.x, kappa * p.x);
         }
     }
 }
