@@ -11,8 +11,10 @@
 
 use glam::DVec3;
 
+use pulp::Simd;
+
 use super::basis::{LANES, ModalBasis, Rows, chunks};
-use super::warp::coefficients_lanes;
+use super::warp::{B_SERIES, C_SERIES, closed, past_series, series_terms};
 
 /// Per-vertex vectors (rest positions, external forces) in the chunked layout `[chunk][axis][lane]`.
 #[derive(Debug, Clone, PartialEq)]
@@ -62,54 +64,85 @@ impl pulp::WithSimd for VertexPass<'_> {
     type Output = ();
 
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _: S) {
+    fn with_simd<S: Simd>(self, simd: S) {
         let Self { basis, q, rest, forces, warp, positions, force } = self;
         let m = basis.modes();
-        let mut acc = vec![[0.0; LANES]; m];
+        // A chunk's LANES vertices go `S::F64_LANES` at a time (two groups with AVX2).
+        let groups = LANES / S::F64_LANES;
+        let zero = simd.splat_f64s(0.0);
+        let qs: Vec<S::f64s> = q.iter().map(|&x| simd.splat_f64s(x)).collect();
+        let mut acc = vec![zero; m * groups];
         for (c, ((out, x), f)) in positions.chunks_mut(LANES).zip(&rest.0).zip(&forces.0).enumerate() {
             let (phi, psi) = basis.chunk(c);
-            let l = combine(phi, q);
-            // MWTS: the warp first, so its temporaries are dead before the force's are made.
-            let (u, local) = if warp {
-                let w = combine(psi, q);
-                let mut t = [0.0; LANES];
-                for k in 0..LANES {
-                    t[k] = w[0][k].mul_add(w[0][k], w[1][k].mul_add(w[1][k], w[2][k] * w[2][k]));
-                }
-                let [a, b, cc] = coefficients_lanes(&t);
-                (rodrigues(&w, &l, &b, &cc), rodrigues(&w, f, &a.map(|x| -x), &b))
-            } else {
-                (l, *f)
-            };
-            for (k, p) in out.iter_mut().enumerate() {
-                *p = DVec3::new(x[0][k] + u[0][k], x[1][k] + u[1][k], x[2][k] + u[2][k]);
-            }
-            for (rows, accj) in phi.iter().zip(acc.iter_mut()) {
-                let mut s = *accj;
-                for (row, loc) in rows.iter().zip(&local) {
-                    for k in 0..LANES {
-                        s[k] = row[k].mul_add(loc[k], s[k]);
+            for g in 0..groups {
+                let at = |row: &[f64; LANES]| S::as_simd_f64s(row).0[g];
+                let mut l = [zero; 3];
+                for (rows, &qj) in phi.iter().zip(&qs) {
+                    for (la, row) in l.iter_mut().zip(rows) {
+                        *la = simd.mul_add_e_f64s(at(row), qj, *la);
                     }
                 }
-                *accj = s;
+                let fv = f.each_ref().map(at);
+                let (u, local) = if warp {
+                    let mut w = [zero; 3];
+                    for (rows, &qj) in psi.iter().zip(&qs) {
+                        for (wa, row) in w.iter_mut().zip(rows) {
+                            *wa = simd.mul_add_e_f64s(at(row), qj, *wa);
+                        }
+                    }
+                    let [a, b, cc] = coefficients(simd, &w);
+                    // The warp first, so its temporaries are dead before the force's are made.
+                    let u = rodrigues(simd, &w, &l, b, cc);
+                    (u, rodrigues(simd, &w, &fv, simd.neg_f64s(a), b))
+                } else {
+                    (l, fv)
+                };
+                let first = g * S::F64_LANES;
+                let u: [&[f64]; 3] = u.each_ref().map(|v| bytemuck::cast_slice(std::slice::from_ref(v)));
+                for (k, p) in out.iter_mut().skip(first).take(S::F64_LANES).enumerate() {
+                    let at = |a: usize| x[a][first + k] + u[a][k];
+                    *p = DVec3::new(at(0), at(1), at(2));
+                }
+                for (rows, s) in phi.iter().zip(acc.iter_mut().skip(g).step_by(groups)) {
+                    for (row, loc) in rows.iter().zip(&local) {
+                        *s = simd.mul_add_e_f64s(at(row), *loc, *s);
+                    }
+                }
             }
         }
-        for (g, accj) in force.iter_mut().zip(&acc) {
-            *g = accj.iter().sum();
+        for (g, accj) in force.iter_mut().zip(acc.chunks_exact(groups)) {
+            *g = accj.iter().map(|&v| simd.reduce_sum_f64s(v)).sum();
         }
     }
 }
 
-/// `Σ_j q_j · rows_j` for one chunk of `Φ` or `Ψ`.
+/// `[sinθ/θ, (1 − cosθ)/θ², (θ − sinθ)/θ³]` for the rotation vectors `w` of a group of vertices:
+/// the series with as many terms as the group's largest angle needs, the closed form for any vertex
+/// at or past `π` (see [`super::warp::coefficients`]).
 #[inline(always)]
-fn combine(data: &[Rows], q: &[f64]) -> Rows {
-    let mut out = [[0.0; LANES]; 3];
-    for (rows, &qj) in data.iter().zip(q) {
-        for (o, row) in out.iter_mut().zip(rows) {
-            for k in 0..LANES {
-                o[k] = row[k].mul_add(qj, o[k]);
-            }
+fn coefficients<S: Simd>(simd: S, w: &[S::f64s; 3]) -> [S::f64s; 3] {
+    let t = simd.mul_add_e_f64s(w[0], w[0], simd.mul_add_e_f64s(w[1], w[1], simd.mul_f64s(w[2], w[2])));
+    let top = simd.reduce_max_f64s(t);
+    let n = series_terms(top);
+    let horner = |series: &[f64]| {
+        let mut acc = simd.splat_f64s(series[n - 1]);
+        for &ck in series[..n - 1].iter().rev() {
+            acc = simd.mul_add_e_f64s(acc, t, simd.splat_f64s(ck));
         }
+        acc
+    };
+    let (b, c) = (horner(&B_SERIES), horner(&C_SERIES));
+    let a = simd.mul_add_e_f64s(simd.neg_f64s(t), c, simd.splat_f64s(1.0));
+    let mut out = [a, b, c];
+    if past_series(top) {
+        // Rare (twists past a half turn): per vertex, in closed form.
+        let tt: &[f64] = bytemuck::cast_slice(std::slice::from_ref(&t));
+        let mut lanes: [[f64; LANES]; 3] = [[0.0; LANES]; 3];
+        for (k, &tk) in tt.iter().enumerate() {
+            let exact = if past_series(tk) { closed(tk) } else { super::warp::coefficients(tk) };
+            (0..3).for_each(|i| lanes[i][k] = exact[i]);
+        }
+        out = lanes.each_ref().map(|l| S::as_simd_f64s(l).0[0]);
     }
     out
 }
@@ -117,27 +150,81 @@ fn combine(data: &[Rows], q: &[f64]) -> Rows {
 /// `v + s (w × v) + t (w × (w × v))`, lane-wise: the warp `(∫₀¹ exp(s[w]×) ds) v` for `s = b`,
 /// `t = c`, and `Rᵀ v` for `s = −a`, `t = b`.
 #[inline(always)]
-fn rodrigues(w: &Rows, v: &Rows, s: &[f64; LANES], t: &[f64; LANES]) -> Rows {
-    let wv = cross(w, v);
-    let wwv = cross(w, &wv);
-    let mut out = *v;
-    for ((o, x), y) in out.iter_mut().zip(&wv).zip(&wwv) {
-        for k in 0..LANES {
-            o[k] = s[k].mul_add(x[k], t[k].mul_add(y[k], o[k]));
-        }
-    }
-    out
+fn rodrigues<S: Simd>(simd: S, w: &[S::f64s; 3], v: &[S::f64s; 3], s: S::f64s, t: S::f64s) -> [S::f64s; 3] {
+    let wv = cross(simd, w, v);
+    let wwv = cross(simd, w, &wv);
+    std::array::from_fn(|i| simd.mul_add_e_f64s(s, wv[i], simd.mul_add_e_f64s(t, wwv[i], v[i])))
 }
 
 /// Lane-wise cross product.
 #[inline(always)]
-fn cross(a: &Rows, b: &Rows) -> Rows {
-    let mut out = [[0.0; LANES]; 3];
-    for (i, o) in out.iter_mut().enumerate() {
-        let (j, l) = ((i + 1) % 3, (i + 2) % 3);
-        for k in 0..LANES {
-            o[k] = a[j][k].mul_add(b[l][k], -(a[l][k] * b[j][k]));
+fn cross<S: Simd>(simd: S, a: &[S::f64s; 3], b: &[S::f64s; 3]) -> [S::f64s; 3] {
+    let c = |i: usize, j: usize| simd.mul_add_e_f64s(a[i], b[j], simd.neg_f64s(simd.mul_f64s(a[j], b[i])));
+    [c(1, 2), c(2, 0), c(0, 1)]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::generate::grid;
+    use crate::solver::modal::warp::{rotation, warp_operator};
+
+    /// The SIMD pass against the per-vertex matrix forms `x = X + (∫exp) Φq`, `g = Φᵀ Rᵀ f`, on a
+    /// mesh whose last chunk is partial and whose rotations run from tiny to past a half turn
+    /// (every branch of the coefficients: 7, 10 and 16 series terms and the closed form).
+    #[test]
+    fn pass_matches_the_per_vertex_matrix_forms() {
+        let mesh = grid([1.0, 0.3], [12, 2]).unwrap(); // 39 vertices: four full chunks and one of 7
+        let n = mesh.vertex_count();
+        assert_ne!(n % LANES, 0);
+        let shapes: Vec<Vec<DVec3>> = (0..3)
+            .map(|j| {
+                let s = |p: DVec3| ((j + 1) as f64 * (p.x + 0.5)).powi(j as i32 + 2);
+                mesh.positions().iter().map(|p| DVec3::new(0.1 * s(*p), s(*p), 0.3 * p.y * s(*p))).collect()
+            })
+            .collect();
+        let basis = ModalBasis::new(&mesh, vec![1.0, 2.0, 3.0], &shapes);
+        let forces: Vec<DVec3> = (0..n).map(|i| DVec3::new(0.2, -1.0, 0.1 * i as f64)).collect();
+        let (rest, chunked) = (ChunkedVectors::new(mesh.positions(), n), ChunkedVectors::new(&forces, n));
+        for scale in [1e-3, 0.1, 0.6, 2.0] {
+            let q = [scale, -0.7 * scale, 0.4 * scale];
+            let largest = (0..n).map(|v| basis.rotation(v, &q).length()).fold(0.0, f64::max);
+            for warp in [false, true] {
+                let (mut positions, mut force) = (vec![DVec3::ZERO; n], vec![0.0; 3]);
+                VertexPass {
+                    basis: &basis,
+                    q: &q,
+                    rest: &rest,
+                    forces: &chunked,
+                    warp,
+                    positions: &mut positions,
+                    force: &mut force,
+                }
+                .run();
+                let mut expected = [0.0; 3];
+                for v in 0..n {
+                    let (l, w) = (basis.displacement(v, &q), basis.rotation(v, &q));
+                    let (u, local) =
+                        if warp { (warp_operator(w) * l, rotation(w).transpose() * forces[v]) } else { (l, forces[v]) };
+                    let want = mesh.positions()[v] + u;
+                    assert!(
+                        (positions[v] - want).length() <= 1e-12 * (1.0 + want.length()),
+                        "vertex {v}, θ ≤ {largest}"
+                    );
+                    for (j, e) in expected.iter_mut().enumerate() {
+                        *e += (0..3).map(|a| basis.phi(v, a, j) * local[a]).sum::<f64>();
+                    }
+                }
+                for (g, e) in force.iter().zip(&expected) {
+                    assert!(
+                        (g - e).abs() <= 1e-11 * (1.0 + e.abs()),
+                        "modal force {g} vs {e}, θ ≤ {largest}, warp {warp}"
+                    );
+                }
+            }
+            if scale == 2.0 {
+                assert!(largest > std::f64::consts::PI, "the test reaches the closed form: θ ≤ {largest}");
+            }
         }
     }
-    out
 }

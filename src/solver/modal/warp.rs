@@ -52,64 +52,43 @@ const fn taylor(offset: u32) -> [f64; TERMS] {
     out
 }
 
-const ONE_MINUS_COS_OVER: [f64; TERMS] = taylor(2);
-const THETA_MINUS_SIN_OVER: [f64; TERMS] = taylor(3);
+/// Taylor coefficients of `b = (1 − cosθ)/θ²` in `t = θ²`, lowest degree first.
+pub(crate) const B_SERIES: [f64; TERMS] = taylor(2);
+/// Taylor coefficients of `c = (θ − sinθ)/θ³` in `t = θ²`, lowest degree first.
+pub(crate) const C_SERIES: [f64; TERMS] = taylor(3);
 
-/// The first `N` terms of a series in `t`, by Horner's rule, for `K` values of `t` at once.
-#[inline(always)]
-fn horner<const N: usize, const K: usize>(c: &[f64; TERMS], t: &[f64; K]) -> [f64; K] {
-    let mut acc = [c[N - 1]; K];
-    for &ck in c[..N - 1].iter().rev() {
-        for (a, tk) in acc.iter_mut().zip(t) {
-            *a = a.mul_add(*tk, ck);
-        }
-    }
-    acc
-}
-
-/// The three coefficients from the series to `N` terms. Only two series are summed: `sinθ/θ` is
-/// `1 − θ² · (θ − sinθ)/θ³` (exact; `θ²·c ≤ 1` below `π`, so its absolute error stays at round-off).
-#[inline(always)]
-fn series_to<const N: usize, const K: usize>(t: &[f64; K]) -> [[f64; K]; 3] {
-    let (b, c) = (horner::<N, K>(&ONE_MINUS_COS_OVER, t), horner::<N, K>(&THETA_MINUS_SIN_OVER, t));
-    let mut a = [1.0; K];
-    for ((ak, tk), ck) in a.iter_mut().zip(t).zip(&c) {
-        *ak = (-tk).mul_add(*ck, *ak);
-    }
-    [a, b, c]
-}
-
-/// `[sinθ/θ, (1 − cosθ)/θ², (θ − sinθ)/θ³]` for `θ² = theta2`.
-pub fn coefficients(theta2: f64) -> [f64; 3] {
-    coefficients_lanes(&[theta2]).map(|[x]| x)
-}
-
-/// [`coefficients`] for `K` squared angles at once (the lanes of the per-step pass), as
-/// `[[sinθ/θ; K], [(1 − cosθ)/θ²; K], [(θ − sinθ)/θ³; K]]`. Every lane uses the Taylor series in
-/// `t = θ²` with as many terms as the largest angle below `π` needs for the first omitted term to be
-/// below 1e-19 (7 below θ = 1/4, 10 below θ = 1, 16 below π); a lane at or above `π` uses the closed
-/// form.
-#[inline(always)]
-pub fn coefficients_lanes<const K: usize>(t: &[f64; K]) -> [[f64; K]; 3] {
-    let top = t.iter().fold(0.0f64, |a, &b| a.max(b));
-    let mut out = if top < 0.0625 {
-        series_to::<7, K>(t)
+/// Terms of the series that `t = θ² ≤ top` needs for the first omitted one to be below 1e-19
+/// relative: 7 below θ = 1/4, 10 below θ = 1, 16 below π. (At or above π: [`closed`] instead.)
+pub(crate) fn series_terms(top: f64) -> usize {
+    if top < 0.0625 {
+        7
     } else if top < 1.0 {
-        series_to::<10, K>(t)
+        10
     } else {
-        series_to::<TERMS, K>(t)
-    };
-    if top >= SERIES_BELOW * SERIES_BELOW {
-        for (k, &tk) in t.iter().enumerate().filter(|(_, tk)| **tk >= SERIES_BELOW * SERIES_BELOW) {
-            let c = closed(tk);
-            (0..3).for_each(|i| out[i][k] = c[i]);
-        }
+        TERMS
     }
-    out
+}
+
+/// Whether `t = θ²` is past the series (`θ ≥ π`), where [`closed`] takes over.
+pub(crate) fn past_series(t: f64) -> bool {
+    t >= SERIES_BELOW * SERIES_BELOW
+}
+
+/// `[sinθ/θ, (1 − cosθ)/θ², (θ − sinθ)/θ³]` for `θ² = theta2`: the series below π, else the
+/// closed form. Only two series are summed: `sinθ/θ` is `1 − θ² · (θ − sinθ)/θ³` (exact; `θ²·c ≤ 1`
+/// below `π`, so its absolute error stays at round-off).
+pub fn coefficients(theta2: f64) -> [f64; 3] {
+    if past_series(theta2) {
+        return closed(theta2);
+    }
+    let n = series_terms(theta2);
+    let horner = |series: &[f64]| series.iter().rev().fold(0.0, |acc, &ck| acc * theta2 + ck);
+    let (b, c) = (horner(&B_SERIES[..n]), horner(&C_SERIES[..n]));
+    [1.0 - theta2 * c, b, c]
 }
 
 /// The coefficients in closed form (accurate away from `θ = 0`).
-fn closed(theta2: f64) -> [f64; 3] {
+pub(crate) fn closed(theta2: f64) -> [f64; 3] {
     let th = theta2.sqrt();
     let (s, half) = (th.sin(), (0.5 * th).sin());
     [s / th, 2.0 * half * half / theta2, (th - s) / (theta2 * th)]
@@ -165,26 +144,17 @@ mod tests {
     #[test]
     fn series_and_closed_form_agree_at_the_switch() {
         // No jump: on either side of each switch in the number of terms (θ = 1/4, 1) and of the switch
-        // to the closed form (θ = π) the series agrees with the closed form, also a bit beyond π.
-        for theta in [0.249, 0.251, 0.3, 0.999, 1.001, 0.5 * SERIES_BELOW, 0.999 * SERIES_BELOW, 1.1 * SERIES_BELOW] {
-            let s = if theta < SERIES_BELOW {
-                coefficients(theta * theta)
-            } else {
-                series_to::<TERMS, 1>(&[theta * theta]).map(|[x]| x)
-            };
-            let c = closed(theta * theta);
+        // to the closed form (θ = π) the series agrees with the closed form.
+        for theta in [0.249, 0.251, 0.3, 0.999, 1.001, 0.5 * SERIES_BELOW, 0.999 * SERIES_BELOW, SERIES_BELOW] {
+            let (s, c) = (coefficients(theta * theta), closed(theta * theta));
             for k in 0..3 {
                 assert!((s[k] - c[k]).abs() < 1e-15, "θ = {theta}, coefficient {k}: {s:?} vs {c:?}");
             }
         }
-        // A chunk of lanes takes the terms its largest angle needs, and the closed form above π per lane:
-        // each lane agrees with its own scalar evaluation.
-        let t = [0.01, 0.5, 4.0, 12.0];
-        let lanes = coefficients_lanes(&t);
-        for (k, &tk) in t.iter().enumerate() {
-            let c = coefficients(tk);
-            assert!((0..3).all(|i| (lanes[i][k] - c[i]).abs() < 1e-15), "lane {k}");
-        }
+        // And 16 terms are still accurate a bit beyond π (the switch is not at the series' edge).
+        let t = (1.1 * SERIES_BELOW).powi(2);
+        let sixteen = |series: &[f64]| series.iter().rev().fold(0.0, |acc, &ck| acc * t + ck);
+        assert!((sixteen(&B_SERIES) - closed(t)[1]).abs() < 1e-15 && (sixteen(&C_SERIES) - closed(t)[2]).abs() < 1e-15);
         // Near zero the closed form of (θ − sinθ)/θ³ loses ~6ε/θ² to cancellation; the series does not.
         let tiny = 1e-4;
         assert!((coefficients(tiny * tiny)[2] - (1.0 / 6.0 - tiny * tiny / 120.0)).abs() < 1e-17);
