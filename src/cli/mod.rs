@@ -10,7 +10,7 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 
-/// Real-time thin shells and cloth: modal warping, implicit particle cloth and PBD.
+/// Real-time thin shells (modal warping, linear modal analysis, discrete shells) and implicit particle cloth.
 #[derive(Debug, Parser)]
 #[command(name = "shellwarp", version, about)]
 pub struct Cli {

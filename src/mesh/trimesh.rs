@@ -120,18 +120,6 @@ fn area_of(p: &[DVec3], t: &[usize; 3]) -> f64 {
     0.5 * (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).length()
 }
 
-/// Area-weighted smooth vertex normals of `positions` over `triangles` (unit length; zero where undefined).
-pub fn vertex_normals(positions: &[DVec3], triangles: &[[usize; 3]]) -> Vec<DVec3> {
-    let mut n = vec![DVec3::ZERO; positions.len()];
-    for t in triangles {
-        // The unnormalised face normal has length 2·area: an area weighting for free.
-        let f = (positions[t[1]] - positions[t[0]]).cross(positions[t[2]] - positions[t[0]]);
-        t.iter().for_each(|&i| n[i] += f);
-    }
-    n.iter_mut().for_each(|v| *v = v.normalize_or_zero());
-    n
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -142,15 +130,12 @@ mod tests {
     const SQ: [[usize; 3]; 2] = [[0, 1, 2], [0, 2, 3]];
 
     #[test]
-    fn valid_square_areas_and_normals() {
+    fn valid_square_areas_and_bounds() {
         let m = TriMesh::new(square(0.0), SQ.to_vec()).unwrap();
         assert_eq!(m.triangle_areas(), vec![0.5, 0.5]);
         let va = m.vertex_areas();
         assert!((va.iter().sum::<f64>() - 1.0).abs() < 1e-15);
         assert!((va[0] - 1.0 / 3.0).abs() < 1e-15 && (va[1] - 1.0 / 6.0).abs() < 1e-15);
-        for n in vertex_normals(m.positions(), m.triangles()) {
-            assert!((n - DVec3::Z).length() < 1e-15);
-        }
         assert_eq!(m.bounding_box(), (DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0)));
     }
 

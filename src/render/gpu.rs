@@ -50,11 +50,6 @@ impl Gpu {
         self.adapter.get_info().name
     }
 
-    /// Full adapter information (name, backend, driver, device type).
-    pub fn adapter_info(&self) -> wgpu::AdapterInfo {
-        self.adapter.get_info()
-    }
-
     /// Whether textures of `format` can be rendered with `count` samples per pixel on this device.
     pub fn supports_sample_count(&self, format: wgpu::TextureFormat, count: u32) -> bool {
         if count <= 1 {

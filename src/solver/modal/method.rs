@@ -112,7 +112,9 @@ impl ModalSolver {
         let anchors = Arc::new(setup.anchors.clone());
         let area = setup.mesh.vertex_areas();
         let modes = s.modes;
-        let analysis = modes_for(&mesh, &anchors, &area, m.density, stiffness, modes, &|_| {})?;
+        let method = if warp { MWTS.name } else { LMA.name };
+        let analysis =
+            modes_for(&mesh, &anchors, &area, m.density, stiffness, modes, &|_| {}).map_err(|e| named(e, method))?;
         let params = ModalParams {
             step: PARAMS[8].check(s.step.unwrap_or(1.0 / 30.0))?,
             alpha: s.rayleigh_alpha,
@@ -120,7 +122,7 @@ impl ModalSolver {
             constraint_damping: 1e-2,
         };
         let mut solver = Self {
-            method: if warp { MWTS.name } else { LMA.name },
+            method,
             dynamics: ModalDynamics::new(analysis.basis.clone(), mesh.positions().to_vec(), Vec::new(), warp),
             mesh,
             anchors,
@@ -174,7 +176,7 @@ impl ModalSolver {
         match p.receiver.try_recv() {
             Ok(result) => {
                 self.pending = None;
-                let analysis = result?;
+                let analysis = result.map_err(|e| named(e, self.method))?;
                 let masses = self.masses();
                 self.dynamics.replace_basis(analysis.basis.clone(), &masses);
                 self.analysis = analysis;
@@ -186,6 +188,14 @@ impl ModalSolver {
                 Err(SolverError::Numerical("the background modal analysis stopped".into()))
             }
         }
+    }
+}
+
+/// The modal analysis reports itself as method `modal`: name the method the user chose instead.
+fn named(e: SolverError, method: &'static str) -> SolverError {
+    match e {
+        SolverError::Unsuitable { reason, .. } => SolverError::Unsuitable { method, reason },
+        e => e,
     }
 }
 
