@@ -20,9 +20,9 @@ const DEGENERATE_RELATIVE_AREA: f64 = 1e-14;
 impl TriMesh {
     /// Validate positions and triangles and build the topology.
     ///
-    /// Errors (checked in this order): empty mesh, non-finite coordinate, out-of-range index,
-    /// degenerate triangle (repeated vertex or near-zero area), unreferenced vertex,
-    /// non-manifold edge, inconsistent orientation.
+    /// Errors (checked in this order): empty mesh, non-finite coordinate, coordinates so large that
+    /// lengths overflow, out-of-range index, degenerate triangle (repeated vertex or near-zero area),
+    /// unreferenced vertex, non-manifold edge, inconsistent orientation, duplicate triangle.
     pub fn new(positions: Vec<DVec3>, triangles: Vec<[usize; 3]>) -> Result<Self, MeshError> {
         if positions.is_empty() || triangles.is_empty() {
             return Err(MeshError::Empty { vertices: positions.len(), triangles: triangles.len() });
@@ -30,13 +30,16 @@ impl TriMesh {
         if let Some(vertex) = positions.iter().position(|p| !p.is_finite()) {
             return Err(MeshError::NonFinite { vertex });
         }
+        let (lo, hi) = bounds(&positions);
+        if !(hi - lo).length_squared().is_finite() {
+            return Err(MeshError::Overflow { largest: lo.abs().max(hi.abs()).max_element() });
+        }
         let n = positions.len();
         for (triangle, t) in triangles.iter().enumerate() {
             if let Some(&index) = t.iter().find(|&&i| i >= n) {
                 return Err(MeshError::IndexOutOfRange { triangle, index, vertex_count: n });
             }
         }
-        let (lo, hi) = bounds(&positions);
         let min_area = DEGENERATE_RELATIVE_AREA * (hi - lo).length_squared();
         for (triangle, t) in triangles.iter().enumerate() {
             let area = area_of(&positions, t);
@@ -145,6 +148,8 @@ mod tests {
         let mut nan = square(0.0);
         nan[2].y = f64::NAN;
         assert_eq!(TriMesh::new(nan, SQ.to_vec()), Err(MeshError::NonFinite { vertex: 2 }));
+        let huge: Vec<DVec3> = square(0.0).into_iter().map(|p| p * 1e300).collect();
+        assert_eq!(TriMesh::new(huge, SQ.to_vec()), Err(MeshError::Overflow { largest: 1e300 }));
         assert_eq!(
             TriMesh::new(square(0.0), vec![[0, 1, 2], [0, 2, 7]]),
             Err(MeshError::IndexOutOfRange { triangle: 1, index: 7, vertex_count: 4 })
@@ -166,6 +171,15 @@ mod tests {
             TriMesh::new(five, vec![[0, 1, 2], [1, 0, 4], [0, 1, 5], [0, 2, 3]]),
             Err(MeshError::NonManifoldEdge { a: 0, b: 1, count: 3 })
         ));
+        assert_eq!(
+            TriMesh::new(square(0.0), vec![[0, 1, 2], [0, 3, 2]]),
+            Err(MeshError::InconsistentOrientation { a: 0, b: 2 })
+        );
+        // A "pillow": the same triangle twice, with opposite windings.
+        assert_eq!(
+            TriMesh::new(square(0.0)[..3].to_vec(), vec![[0, 1, 2], [0, 2, 1]]),
+            Err(MeshError::DuplicateTriangle { first: 0, second: 1 })
+        );
     }
 
     #[test]

@@ -92,5 +92,9 @@ mod tests {
         assert!(v_beam(0.0, 1.0, 90.0, [4, 4]).is_err());
         assert!(v_beam(1.0, f64::INFINITY, 90.0, [4, 4]).is_err());
         assert!(v_beam(1.0, 1.0, 10.0, [4, 4]).is_ok());
+        assert!(matches!(
+            v_beam(1.0, 1.0, 90.0, [usize::MAX, 2]),
+            Err(MeshError::BadParameter { name: "segments", .. })
+        ));
     }
 }
