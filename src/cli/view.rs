@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use glam::DVec3;
 use shellwarp::app::viewer::{self, ViewerOptions};
 
-use super::render::parse_size;
+use super::render::parse_size_up_to;
 
 /// Arguments of `shellwarp view`.
 #[derive(Debug, Clone, clap::Parser)]
@@ -21,8 +21,8 @@ pub struct ViewArgs {
     /// Override a scene value, e.g. `--set material.k_bend=0.02` (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
-    /// Window size, WIDTHxHEIGHT.
-    #[arg(long, default_value = "1280x760", value_parser = parse_size)]
+    /// Window size, WIDTHxHEIGHT (each side at most 8192).
+    #[arg(long, default_value = "1280x760", value_parser = parse_window_size)]
     size: (u32, u32),
     /// Start paused.
     #[arg(long)]
@@ -47,6 +47,11 @@ impl Default for ViewArgs {
     }
 }
 
+/// Parse a window size `WIDTHxHEIGHT`, each side from 1 to 8192.
+fn parse_window_size(s: &str) -> Result<(u32, u32), String> {
+    parse_size_up_to(s, 8192)
+}
+
 /// Parse `VERTEX:X,Y,Z`.
 fn parse_drag(s: &str) -> Result<(usize, DVec3), String> {
     let bad = || format!("`{s}`: expected VERTEX:X,Y,Z, e.g. 204:0.5,0.2,0.0");
@@ -66,7 +71,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
         shellwarp::solver::registry::find(m)?;
         overrides.push(format!("solver.method={m}"));
     }
-    viewer::run(ViewerOptions {
+    let options = ViewerOptions {
         scene: args.scene.clone(),
         overrides,
         size: args.size,
@@ -75,6 +80,35 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
         out: args.out.clone(),
         drag: args.drag,
         state_out: args.state_out.clone(),
-    })?;
+    };
+    viewer::run(options).map_err(|e| anyhow::anyhow!(without_source_location(&format!("{e:#}"))))?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// winit's OS errors begin with a place in winit's own source (`os error at /…/winit-0.30.13/src/…/mod.rs:765: `),
+/// which means nothing to a user: drop it and keep the message.
+fn without_source_location(message: &str) -> String {
+    const MARK: &str = "os error at ";
+    let Some(start) = message.find(MARK) else { return message.to_string() };
+    let rest = &message[start + MARK.len()..];
+    let end = rest.find(".rs:").and_then(|i| rest[i..].find(": ").map(|j| i + j + 2));
+    match end {
+        Some(end) => format!("{}{}", &message[..start], &rest[end..]),
+        None => message.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn winit_source_locations_are_dropped() {
+        let raw = "opening the display (is DISPLAY set? try xvfb-run): os error at /root/.cargo/registry/src/x/winit-0.30.13/src/platform_impl/linux/mod.rs:765: neither WAYLAND_DISPLAY nor DISPLAY is set.";
+        assert_eq!(
+            without_source_location(raw),
+            "opening the display (is DISPLAY set? try xvfb-run): neither WAYLAND_DISPLAY nor DISPLAY is set."
+        );
+        assert_eq!(without_source_location("no location: fine"), "no location: fine");
+    }
 }
