@@ -68,6 +68,8 @@ pub enum Command {
     MoveDrag(DragId, DragKind),
     /// Remove a drag.
     RemoveDrag(DragId),
+    /// Remove every drag.
+    ClearDrags,
     /// Back to the initial state; clears a divergence.
     Reset,
     /// Pause or resume.
@@ -237,6 +239,10 @@ impl SimLoop {
             Command::AddDrag(id, drag) => self.solver.drags_mut().insert(id, drag),
             Command::MoveDrag(id, kind) => self.solver.drags_mut().retarget(id, kind),
             Command::RemoveDrag(id) => self.solver.drags_mut().remove(id).map(|_| ()),
+            Command::ClearDrags => {
+                self.solver.drags_mut().clear();
+                Ok(())
+            }
             Command::Reset => {
                 self.solver.reset();
                 self.restart();
