@@ -341,7 +341,7 @@ fn statistics(ui: &mut egui::Ui, state: &PanelState, snap: &Snapshot) {
 fn history_plot(ui: &mut egui::Ui, state: &PanelState, id: &str, title: &str, column: usize) {
     let points: Vec<[f64; 2]> = state.history.iter().map(|h| [h[0], h[column]]).collect();
     ui.label(RichText::new(format!("{title} over simulated time (s)")).small())
-        .on_hover_text("The last 600 steps; drag to pan, scroll to zoom, double-click to fit");
+        .on_hover_text("The last 600 steps; drag or scroll to pan, Ctrl+scroll to zoom, double-click to fit");
     Plot::new(id).height(70.0).show(ui, |plot| {
         plot.line(Line::new(title, points));
     });
