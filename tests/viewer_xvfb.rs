@@ -132,3 +132,18 @@ fn scripted_drag_deflects_the_shell_in_the_real_window() {
     eprintln!("viewport vs reference: drag {diff}; control {control_diff}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn an_unattended_screenshot_that_cannot_be_saved_fails_with_one_clear_line() {
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 640x480x24"])
+        .arg(env!("CARGO_BIN_EXE_shellwarp"))
+        .args(["view", "--scene", "cantilever", "--size", "480x320", "--screenshot-after", "3"])
+        .args(["--out", "/nonexistent-shellwarp-dir/shot.png"])
+        .output()
+        .expect("xvfb-run is installed (apt-get install xvfb xauth)");
+    assert!(!out.status.success(), "the run must fail");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let line = stderr.lines().find(|l| l.starts_with("error:")).unwrap_or_default();
+    assert!(line.contains("/nonexistent-shellwarp-dir/shot.png"), "stderr: {stderr}");
+}
