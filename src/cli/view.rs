@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use glam::DVec3;
 use shellwarp::app::viewer::{self, ViewerOptions};
+use shellwarp::solver::{Drag, DragKind};
 
 use super::render::parse_size_up_to;
 
@@ -33,9 +34,14 @@ pub struct ViewArgs {
     /// Screenshot file (F12, and --screenshot-after).
     #[arg(long, default_value = "shellwarp-screenshot.png")]
     out: PathBuf,
-    /// Scripted drag, sent through the same command channel as the mouse: VERTEX:X,Y,Z.
+    /// Scripted position drag, sent through the same command channel as the mouse: VERTEX:X,Y,Z
+    /// (target in metres; repeatable).
     #[arg(long, value_name = "VERTEX:X,Y,Z", value_parser = parse_drag)]
-    drag: Option<(usize, DVec3)>,
+    drag: Vec<(usize, DVec3)>,
+    /// Scripted orientation drag, like --drag: VERTEX:WX,WY,WZ (rotation vector, axis × angle in
+    /// radians; repeatable).
+    #[arg(long, value_name = "VERTEX:WX,WY,WZ", value_parser = parse_drag)]
+    twist: Vec<(usize, DVec3)>,
     /// With --screenshot-after: also write the simulation state in the screenshot as JSON.
     #[arg(long, value_name = "FILE")]
     state_out: Option<PathBuf>,
@@ -52,7 +58,7 @@ fn parse_window_size(s: &str) -> Result<(u32, u32), String> {
     parse_size_up_to(s, 8192)
 }
 
-/// Parse `VERTEX:X,Y,Z`.
+/// Parse `VERTEX:X,Y,Z` (also `VERTEX:WX,WY,WZ`).
 fn parse_drag(s: &str) -> Result<(usize, DVec3), String> {
     let bad = || format!("`{s}`: expected VERTEX:X,Y,Z, e.g. 204:0.5,0.2,0.0");
     let (v, xyz) = s.split_once(':').ok_or_else(bad)?;
@@ -78,7 +84,12 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
         paused: args.paused,
         screenshot_after: args.screenshot_after,
         out: args.out.clone(),
-        drag: args.drag,
+        drags: args
+            .drag
+            .iter()
+            .map(|&(vertex, p)| Drag { vertex, kind: DragKind::Position(p) })
+            .chain(args.twist.iter().map(|&(vertex, w)| Drag { vertex, kind: DragKind::Orientation(w) }))
+            .collect(),
         state_out: args.state_out.clone(),
     };
     viewer::run(options).map_err(|e| anyhow::anyhow!(without_source_location(&format!("{e:#}"))))?;
