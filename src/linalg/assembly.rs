@@ -187,6 +187,12 @@ impl BlockAssembler {
         }
     }
 
+    /// The diagonal entries of the current values, in DOF order.
+    pub fn diagonal(&self) -> Vec<f64> {
+        let vals = self.matrix.val();
+        self.diagonal.iter().map(|&i| vals[i]).collect()
+    }
+
     /// Add `scale ×` values of another matrix with the same pattern (e.g. a stored rest stiffness).
     pub fn add_scaled(&mut self, values: &[f64], scale: f64) {
         self.matrix.val_mut().iter_mut().zip(values).for_each(|(a, b)| *a += scale * b);
@@ -271,7 +277,10 @@ mod tests {
                 assert_eq!(d[i][j], block[j * 6 + i] + extra, "entry ({i}, {j})");
             }
         }
+        let before = a.diagonal();
+        assert!((0..6).all(|i| before[i] == d[i][i]), "diagonal() reads the diagonal");
         a.add_diagonal(&[1.0; 6]);
+        assert!(a.diagonal().iter().zip(&before).all(|(d, b)| *d == b + 1.0));
         assert_eq!(a.to_dense()[4][4], block[4 * 6 + 4] + block[7] + 1.0);
         assert_eq!(a.to_dense()[3][4], block[4 * 6 + 3] + block[6]);
         assert!(a.add_element(0, &block[..9]).is_err());

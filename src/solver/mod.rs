@@ -15,6 +15,7 @@ mod params;
 pub mod registry;
 mod rigid;
 mod shell_model;
+mod stability;
 mod stats;
 
 pub use drag::{Drag, DragId, DragKind, DragSet};
@@ -63,6 +64,12 @@ pub trait Solver: Send {
     /// Background work in progress (e.g. recomputing modes after a parameter change), if any.
     fn progress(&self) -> Option<Progress> {
         None
+    }
+
+    /// Choices the method made by itself that a user should know about (e.g. a substep lowered to
+    /// stay stable), one sentence each; `sim` prints them. None by default.
+    fn notes(&self) -> Vec<String> {
+        Vec::new()
     }
 }
 
