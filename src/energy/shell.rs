@@ -15,7 +15,7 @@ use glam::DVec3;
 use nalgebra::SMatrix;
 
 use super::EnergyError;
-use super::hinge::{angle_gradient, angle_hessian, wrapped_difference};
+use super::hinge::{angle_gradient, angle_hessian_lower, lower_index, wrapped_difference};
 use super::stretch::{area_gradient, edge, put, triangle};
 use crate::mesh::TriMesh;
 
@@ -298,16 +298,15 @@ impl DiscreteShell {
     }
 }
 
-/// Hessian of `weight (θ − θ̄)²`, `2 weight (∇θ ∇θᵀ + (θ − θ̄) ∇²θ)`, into a flat 12 × 12 block.
+/// Hessian of `weight (θ − θ̄)²`, `2 weight (∇θ ∇θᵀ + (θ − θ̄) ∇²θ)`, into a flat 12 × 12 block: each
+/// lower block is computed once and written with its transpose.
 fn hinge_hessian(p: &[DVec3; 4], rest: f64, weight: f64, out: &mut [f64; 144]) {
-    let d = angle_hessian(p);
-    let delta = wrapped_difference(d.theta, rest);
+    let (theta, grad, lower) = angle_hessian_lower(p);
+    let delta = wrapped_difference(theta, rest);
     let s = 2.0 * weight;
     for a in 0..4 {
-        for b in a..4 {
-            // ∇²θ is symmetric up to round-off; average the two computed blocks so the result is exact.
-            let hab = if a == b { d.hess[a][b] } else { (d.hess[a][b] + d.hess[b][a].transpose()) * 0.5 };
-            let m = (super::hinge::outer(d.grad[a], d.grad[b]) + hab * delta) * s;
+        for b in 0..=a {
+            let m = super::hinge::outer(grad[a] * s, grad[b]) + lower[lower_index(a, b)] * (s * delta);
             put(out, 12, a, b, m);
             if a != b {
                 put(out, 12, b, a, m.transpose());
