@@ -9,34 +9,33 @@
 //! block-contiguous scratch array (block `(i, j)` column-major at `ubase_j + 9·pos(i)`, where the
 //! upper rows `i ≤ j` are the first entries of the sorted `R_j`: one or two cache lines per block, half
 //! the matrix's size). A final pass writes every block column in faer's layout, reading a lower block
-//! `(i, j)`, `i > j`, as the transpose of `(j, i)`. Every element stores, for each of its `3k` local
-//! columns and `k` vertices that land in an upper block, the scratch offset of the three contiguous
-//! values it adds to and which three of its own — computed at construction — so numeric assembly is
-//! a sequential walk with no searching and no skipped entries.
+//! `(i, j)`, `i > j`, as the transpose of `(j, i)`. Elements hand in their lower 3 × 3 blocks
+//! (`p ≥ q`, see [`crate::energy::DiscreteShell::element_hessians`]); each stores, per block, the
+//! scratch offset of the upper global block it adds to and whether to add it transposed — computed
+//! at construction — so numeric assembly is a sequential walk of 9-value additions with no searching.
 
 use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
 
 use super::{DofMap, LinalgError};
 use crate::energy::{DiscreteShell, HessianMode};
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
-/// Flag in [`BlockAssembler::sources`]: read the block transposed.
+/// Flag in [`BlockAssembler::sources`] and [`BlockAssembler::slots`]: the block goes transposed.
 const TRANSPOSED: u32 = 1 << 31;
+/// A slot of a block that touches a removed vertex.
+const SKIP: u32 = u32::MAX;
 
 /// A sparse symmetric block matrix with a fixed pattern and per-element value slots.
 ///
-/// Element blocks must be symmetric (Hessians, mass matrices): only their upper blocks are read.
+/// Elements must be symmetric (Hessians, mass matrices): they are given by their lower blocks.
 #[derive(Debug, Clone)]
 pub struct BlockAssembler {
     matrix: SparseColMat<usize, f64>,
-    /// Per element, the triplets it adds: `(scratch offset, t)` where `t = (3q + c)·k + p` numbers
-    /// rows `3p..3p+3` of local column `3q + c` of its block. Pairs touching removed vertices or landing
-    /// in lower blocks are left out.
-    slots: Vec<(u32, u32)>,
+    /// Per element, per lower block `(p, q)` in packed order: the scratch offset of the upper global
+    /// block it adds to (with [`TRANSPOSED`] if the global block `(i, j)` has `i > j`), or [`SKIP`].
+    slots: Vec<u32>,
     /// Per element, its first slot (and one past the last element's).
     element_start: Vec<usize>,
-    /// Per element, its block's length `9k²`.
-    element_len: Vec<u32>,
     /// Block-contiguous accumulation buffer of the upper blocks.
     scratch: Vec<f64>,
     /// `(base_j, |R_j|)` of every block column.
@@ -99,21 +98,15 @@ impl BlockAssembler {
         let scratch_offset = |i: usize, j: usize, c: usize| -> usize { upper_bases[j] + 9 * position(i, j) + 3 * c };
         let mut slots = Vec::new();
         let mut element_start = Vec::with_capacity(stencils.len() + 1);
-        let mut element_len = Vec::with_capacity(stencils.len());
         for s in &stencils {
             element_start.push(slots.len());
-            element_len.push(9 * (s.len() * s.len()) as u32);
-            let mut t = 0u32;
-            for &vq in s.iter() {
-                for c in 0..3 {
-                    for &vp in s.iter() {
-                        if let (Some(i), Some(j)) = (dofs.block(vp), dofs.block(vq))
-                            && i <= j
-                        {
-                            slots.push((scratch_offset(i, j, c) as u32, t));
-                        }
-                        t += 1;
-                    }
+            for (p, &vp) in s.iter().enumerate() {
+                for &vq in &s[..=p] {
+                    slots.push(match (dofs.block(vp), dofs.block(vq)) {
+                        (Some(i), Some(j)) if i <= j => scratch_offset(i, j, 0) as u32,
+                        (Some(i), Some(j)) => scratch_offset(j, i, 0) as u32 | TRANSPOSED,
+                        _ => SKIP,
+                    });
                 }
             }
         }
@@ -132,7 +125,7 @@ impl BlockAssembler {
                 },
             )
             .collect();
-        Ok(Self { matrix, slots, element_start, element_len, diagonal, scratch: vec![0.0; upper], groups, sources })
+        Ok(Self { matrix, slots, element_start, diagonal, scratch: vec![0.0; upper], groups, sources })
     }
 
     /// The pattern of a shell's Hessian over `dofs`.
@@ -157,25 +150,27 @@ impl BlockAssembler {
         self.scratch.fill(0.0);
     }
 
-    /// Add an element's dense `3k × 3k` block (`k` = its stencil's vertex count) in column-major order
-    /// (for the symmetric blocks of a Hessian this is the same as row-major). Between
+    /// Add an element's Hessian, given by its lower 3 × 3 blocks `(p, q)`, `p ≥ q`, packed row-wise
+    /// (`p(p + 1)/2 + q`, for `k` stencil vertices `k(k + 1)/2` of them). Between
     /// [`BlockAssembler::begin`] and [`BlockAssembler::finish`].
-    pub fn add_element(&mut self, element: usize, block: &[f64]) -> Result<(), LinalgError> {
-        let (Some(&start), Some(&end), Some(&len)) =
-            (self.element_start.get(element), self.element_start.get(element + 1), self.element_len.get(element))
-        else {
-            return Err(LinalgError::BadBlock { element, len: block.len() });
+    pub fn add_element(&mut self, element: usize, lower: &[DMat3]) -> Result<(), LinalgError> {
+        let (Some(&start), Some(&end)) = (self.element_start.get(element), self.element_start.get(element + 1)) else {
+            return Err(LinalgError::BadBlock { element, len: lower.len() });
         };
-        if block.len() != len as usize {
-            return Err(LinalgError::BadBlock { element, len: block.len() });
+        if lower.len() != end - start {
+            return Err(LinalgError::BadBlock { element, len: lower.len() });
         }
-        let vals = &mut self.scratch;
-        for &(off, t) in &self.slots[start..end] {
-            let (off, t) = (off as usize, 3 * t as usize);
-            if let (Some(dst), Some(src)) = (vals.get_mut(off..off + 3), block.get(t..t + 3)) {
-                dst[0] += src[0];
-                dst[1] += src[1];
-                dst[2] += src[2];
+        for (&slot, block) in self.slots[start..end].iter().zip(lower) {
+            if slot == SKIP {
+                continue;
+            }
+            let off = (slot & !TRANSPOSED) as usize;
+            let values = if slot & TRANSPOSED == 0 { *block } else { block.transpose() }.to_cols_array();
+            // A fixed-size view, so the nine additions unroll and vectorise.
+            if let Some(Ok(dst)) = self.scratch.get_mut(off..off + 9).map(<&mut [f64; 9]>::try_from) {
+                for k in 0..9 {
+                    dst[k] += values[k];
+                }
             }
         }
         Ok(())
@@ -302,9 +297,14 @@ mod tests {
         // A symmetric element block (entry (i, j) = ij + i + j, plus 7 on the diagonal).
         let block: Vec<f64> =
             (0..36).map(|t| ((t % 6) * (t / 6) + t % 6 + t / 6) as f64 + if t % 7 == 0 { 7.0 } else { 0.0 }).collect();
+        // Its lower blocks (0, 0), (1, 0), (1, 1), column-major.
+        let lower: Vec<DMat3> = [(0, 0), (1, 0), (1, 1)]
+            .iter()
+            .map(|&(p, q)| DMat3::from_cols_array(&std::array::from_fn(|t| block[(3 * q + t / 3) * 6 + 3 * p + t % 3])))
+            .collect();
         a.begin();
-        a.add_element(0, &block).unwrap();
-        a.add_element(1, &block).unwrap();
+        a.add_element(0, &lower).unwrap();
+        a.add_element(1, &lower).unwrap();
         a.finish();
         let d = a.to_dense();
         assert!((0..6).all(|i| (0..6).all(|j| d[i][j] == d[j][i])), "exactly symmetric");
@@ -322,8 +322,8 @@ mod tests {
         assert!(a.diagonal().iter().zip(&before).all(|(d, b)| *d == b + 1.0));
         assert_eq!(a.to_dense()[4][4], block[4 * 6 + 4] + block[7] + 1.0);
         assert_eq!(a.to_dense()[3][4], block[4 * 6 + 3] + block[6]);
-        assert!(a.add_element(0, &block[..9]).is_err());
-        assert!(a.add_element(5, &block).is_err());
+        assert!(a.add_element(0, &lower[..2]).is_err());
+        assert!(a.add_element(5, &lower).is_err());
         assert!(BlockAssembler::new(&dofs, [&[0usize, 7][..]]).is_err());
         let v = [1.0, 0.0, 0.0, 0.0, 0.0, 2.0];
         let mut out = [0.0; 6];
