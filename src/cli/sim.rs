@@ -18,7 +18,7 @@ pub struct SimArgs {
     /// Number of fixed steps to take.
     #[arg(long, default_value_t = 30)]
     steps: u64,
-    /// Write the final mesh to this OBJ file.
+    /// Write the final mesh (the last finite state if the run diverged) to this OBJ file.
     #[arg(long)]
     obj: Option<PathBuf>,
     /// Print one JSON object instead of a text summary.
@@ -26,7 +26,7 @@ pub struct SimArgs {
     json: bool,
 }
 
-/// Summary statistics of a series of seconds.
+/// Summary statistics of a series of seconds; all zero when no step completed.
 #[derive(Debug, Serialize)]
 struct Timing {
     mean: f64,
@@ -104,10 +104,19 @@ struct Report {
     step_seconds: Timing,
     final_energy: f64,
     final_residual: f64,
+    /// The last step's residual relative to its solve's scale (what the tolerance bounds).
+    final_relative_residual: f64,
     total_iterations: u64,
+    /// Whether every completed step's inner solve met its tolerance (and at least one step completed).
+    converged: bool,
+    /// Steps whose inner solve stopped above its tolerance.
+    unconverged_steps: u64,
+    /// Bounding box of the final positions (of the last finite state if the run diverged).
     bbox_min: [f64; 3],
     bbox_max: [f64; 3],
     diverged: Option<String>,
+    /// Choices the method made by itself (e.g. an automatic substep).
+    notes: Vec<String>,
 }
 
 /// Run the simulation and print the report; exit code 1 if it diverged.
@@ -117,13 +126,18 @@ pub fn run(args: &SimArgs) -> anyhow::Result<ExitCode> {
     let mut times = StepTimes::new();
     let mut last = StepStats::default();
     let mut iterations = 0u64;
+    let mut unconverged = 0u64;
     let mut diverged = None;
+    // The positions to report: the current ones, or the last finite state before a divergence.
+    let mut finite: Vec<DVec3> = solver.positions().to_vec();
     for _ in 0..args.steps {
         match solver.step() {
             Ok(stats) => {
                 times.push(stats.wall_seconds);
                 iterations += u64::from(stats.iterations);
+                unconverged += u64::from(!stats.converged);
                 last = stats;
+                finite.copy_from_slice(solver.positions());
             }
             Err(e) => {
                 diverged = Some(e.to_string());
@@ -131,12 +145,10 @@ pub fn run(args: &SimArgs) -> anyhow::Result<ExitCode> {
             }
         }
     }
-    let (lo, hi) =
-        solver.positions().iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let (lo, hi) = finite.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
     if let Some(path) = &args.obj {
         // The error names the file already.
-        shellwarp::mesh::obj::save_obj(path, solver.positions(), setup.mesh.triangles())
-            .context("writing the final mesh")?;
+        shellwarp::mesh::obj::save_obj(path, &finite, setup.mesh.triangles()).context("writing the final mesh")?;
     }
     let report = Report {
         scene: setup.scene.name.clone(),
@@ -148,10 +160,14 @@ pub fn run(args: &SimArgs) -> anyhow::Result<ExitCode> {
         step_seconds: times.summary(),
         final_energy: last.energy,
         final_residual: last.residual,
+        final_relative_residual: last.relative_residual,
         total_iterations: iterations,
+        converged: times.count > 0 && unconverged == 0,
+        unconverged_steps: unconverged,
         bbox_min: lo.to_array(),
         bbox_max: hi.to_array(),
         diverged,
+        notes: solver.notes(),
     };
     if args.json {
         println!("{}", serde_json::to_string(&report)?);
@@ -168,10 +184,17 @@ pub fn run(args: &SimArgs) -> anyhow::Result<ExitCode> {
             report.final_energy
         );
         println!("bounding box: {:?} .. {:?}", report.bbox_min, report.bbox_max);
+        if report.unconverged_steps > 0 {
+            println!(
+                "{} of {} steps stopped above the solver tolerance (last relative residual {:.2e})",
+                report.unconverged_steps, report.steps, report.final_relative_residual
+            );
+        }
+        report.notes.iter().for_each(|n| println!("note: {n}"));
     }
     match &report.diverged {
         Some(reason) => {
-            eprintln!("error: simulation diverged: {reason}");
+            eprintln!("error: simulation {reason}");
             Ok(ExitCode::FAILURE)
         }
         None => Ok(ExitCode::SUCCESS),

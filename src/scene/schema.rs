@@ -202,6 +202,9 @@ pub struct SolverSettings {
     /// Fixed time step in seconds; the method's default if absent.
     #[serde(default)]
     pub step: Option<f64>,
+    /// Inner step of methods that subdivide their step (`ds`), seconds; automatic if absent.
+    #[serde(default)]
+    pub substep: Option<f64>,
     /// Number of vibration modes for modal methods.
     #[serde(default = "default_modes")]
     pub modes: usize,

@@ -125,6 +125,9 @@ impl Scene {
             }
         }
         let s = &self.solver;
+        if let Some(h) = s.substep {
+            positive("solver.substep", h)?;
+        }
         if let Some(h) = s.step {
             positive("solver.step", h)?;
         }

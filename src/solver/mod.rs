@@ -15,6 +15,7 @@ mod params;
 pub mod registry;
 mod rigid;
 mod shell_model;
+mod stability;
 mod stats;
 
 pub use drag::{Drag, DragId, DragKind, DragSet};
@@ -76,6 +77,12 @@ pub trait Solver: Send {
     /// Read-only figures describing the state in use, as (label, value), for the UI (e.g. the number
     /// of modes of the active basis while another one is being computed). Empty by default.
     fn info(&self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
+
+    /// Choices the method made by itself that a user should know about (e.g. a substep lowered to
+    /// stay stable), one sentence each; `sim` prints them. None by default.
+    fn notes(&self) -> Vec<String> {
         Vec::new()
     }
 }

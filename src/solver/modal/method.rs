@@ -256,6 +256,7 @@ impl Solver for ModalSolver {
             energy,
             residual: 0.0,
             iterations: 0,
+            ..StepStats::default()
         })
     }
 
