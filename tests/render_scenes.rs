@@ -19,7 +19,7 @@ fn every_builtin_scene_renders_and_matches_its_reference() {
         // The rest shape (rigid method, no steps): the reference pins the view, not the physics.
         let setup = scene::load(name, &["solver.method=rigid".into()]).unwrap_or_else(|e| panic!("{name}: {e}"));
         let view = SceneView::new(&setup);
-        let frame = view.frame(view.camera(), setup.mesh.positions(), &[], ViewOptions { wireframe: true });
+        let frame = view.frame(view.camera(), setup.mesh.positions(), 0.0, &[], ViewOptions { wireframe: true });
         let image = headless.render(&frame).unwrap_or_else(|e| panic!("{name}: {e}"));
         // Something other than background is visible: the mesh covers part of the picture.
         let bg = *image.get_pixel(0, 0);

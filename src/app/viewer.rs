@@ -437,6 +437,7 @@ impl Running {
         let mut frame = self.view.frame(
             self.orbit.camera(),
             &snapshot.positions,
+            snapshot.stats.sim_time,
             &snapshot.drags,
             ViewOptions { wireframe: self.panel.wireframe },
         );

@@ -43,14 +43,16 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
 pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let setup = args.scene.load()?;
     let mut solver = solver::build(&setup).with_context(|| format!("building solver for {}", setup.origin.label))?;
+    let mut time = 0.0;
     for _ in 0..args.frames {
-        if let Err(e) = solver.step() {
-            bail!("{}: simulation diverged before the picture: {e}", setup.origin.label);
+        match solver.step() {
+            Ok(stats) => time = stats.sim_time,
+            Err(e) => bail!("{}: simulation diverged before the picture: {e}", setup.origin.label),
         }
     }
     let view = SceneView::new(&setup);
     let drags: Vec<_> = solver.drags().iter().copied().collect();
-    let frame = view.frame(view.camera(), solver.positions(), &drags, ViewOptions { wireframe: args.wireframe });
+    let frame = view.frame(view.camera(), solver.positions(), time, &drags, ViewOptions { wireframe: args.wireframe });
     let mut headless = Headless::new(args.size.0, args.size.1).context("starting the renderer")?;
     let image = headless.render(&frame).context("rendering")?;
     save_png(&image, &args.out).with_context(|| format!("saving {}", args.out.display()))?;
