@@ -222,3 +222,50 @@ fn the_drape_never_enters_the_ball_beyond_the_margin_and_comes_to_rest() {
     assert!(worst < 0.5 * margin, "the cloth rests on the ball (nearest particle {worst:.4} m away)");
     assert!(last < 1e-5 * peak, "the cloth is still moving: KE {last:e} J after a peak of {peak:e} J");
 }
+
+/// The drape's cloth dropped off-centre onto the ball alone (no floor). With friction (μ = 0.8) it
+/// settles and stays: between 5 s and 10 s its centre moves less than 5 mm. Without friction the same
+/// cloth creeps toward its longer side like a rope over a pulley, faster and faster, until it has slid
+/// off completely (no particle within 2 cm of the ball).
+#[test]
+fn friction_holds_the_cloth_on_a_still_ball_and_without_it_the_cloth_slides_off() {
+    let ball = DVec3::new(0.0, 0.25, 0.0);
+    let touching = |x: &[DVec3]| x.iter().filter(|p| (**p - ball).length() < 0.27).count();
+    let mean_x = |x: &[DVec3]| x.iter().map(|p| p.x).sum::<f64>() / x.len() as f64;
+    let cloth = |mu: f64| {
+        let setup = load(
+            "drape",
+            &[
+                "colliders=[{sphere={center=[0.0,0.25,0.0],radius=0.25}}]",
+                "placement.translate=[0.3,0.6,0.0]",
+                &format!("material.mu_s={mu}"),
+                &format!("material.mu_k={mu}"),
+            ],
+        );
+        Cloth::new(&setup, Variant::Triangles).unwrap()
+    };
+    let mut rough = cloth(0.8);
+    let mut smooth = cloth(0.0);
+    let mut centres = Vec::new();
+    for k in 1..=1000 {
+        rough.step().unwrap();
+        smooth.step().unwrap();
+        if k == 500 || k == 1000 {
+            centres.push((mean_x(rough.positions()), mean_x(smooth.positions())));
+        }
+    }
+    let (rough_drift, smooth_drift) = (centres[1].0 - centres[0].0, centres[1].1 - centres[0].1);
+    let on_ball = touching(rough.positions());
+    println!(
+        "5 s → 10 s: with friction the centre moves {rough_drift:.4} m ({on_ball} particles on the ball), without {smooth_drift:.4} m"
+    );
+    assert!(rough_drift.abs() < 0.005 && on_ball > 400, "with friction the cloth stays put");
+    assert!(smooth_drift > 0.01, "without friction it is sliding toward its longer side");
+    let mut steps = 1000;
+    while touching(smooth.positions()) > 0 && steps < 4000 {
+        smooth.step().unwrap();
+        steps += 1;
+    }
+    println!("without friction the cloth has left the ball after {:.1} s", steps as f64 * smooth.time_step());
+    assert_eq!(touching(smooth.positions()), 0, "without friction the cloth slides off");
+}
