@@ -3,6 +3,7 @@
 
 use glam::{DVec3, Vec3};
 
+use super::gizmo;
 use crate::collision::{Body, Shape};
 use crate::mesh::generate;
 use crate::render::{Camera, Frame, Marker, MeshDraw};
@@ -20,6 +21,8 @@ const ANCHOR: [f32; 4] = [0.15, 0.15, 0.9, 1.0];
 const POSITION_DRAG: [f32; 4] = [0.95, 0.85, 0.1, 1.0];
 const ORIENTATION_DRAG: [f32; 4] = [0.8, 0.1, 0.8, 1.0];
 const GRID: [f32; 4] = [0.25, 0.27, 0.32, 0.6];
+/// Radius of the rotate gizmo, in marker sizes.
+const GIZMO_MARKERS: f32 = 9.0;
 
 /// How to draw.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -154,12 +157,13 @@ impl SceneView {
                     });
                     frame.line(f32x3(p), f32x3(target), POSITION_DRAG);
                 }
-                DragKind::Orientation(_) => {
+                DragKind::Orientation(rotation) => {
                     frame.markers.push(Marker {
                         position: f32x3(p),
                         size: 2.0 * self.marker_size,
                         color: ORIENTATION_DRAG,
                     });
+                    gizmo::rotate_gizmo(&mut frame, p, rotation, f64::from(GIZMO_MARKERS * self.marker_size));
                 }
             }
         }

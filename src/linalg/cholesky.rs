@@ -61,11 +61,6 @@ impl SparseCholesky {
         Ok(Self { values: vec![0.0; symbolic.len_val()], symbolic, factored: false })
     }
 
-    /// Number of stored entries of the factor `L` (a measure of fill and of solve cost).
-    pub fn factor_entries(&self) -> usize {
-        self.symbolic.len_val()
-    }
-
     /// Factorise `matrix` (same pattern as at construction). Fails if it is not positive definite.
     pub fn factor(&mut self, matrix: SparseColMatRef<'_, usize, f64>) -> Result<(), LinalgError> {
         self.factored = false;

@@ -27,7 +27,7 @@ pub struct Setup {
 impl Setup {
     /// Make the mesh and resolve selections. Fails if the mesh cannot be made or a selection is empty.
     pub fn new(scene: Scene, origin: Origin) -> Result<Self, SceneError> {
-        let mesh_err = |source: MeshError| SceneError::Mesh { file: origin.label.clone(), source };
+        let mesh_err = |error: MeshError| SceneError::Mesh { file: origin.label.clone(), error };
         let raw = make_mesh(&scene.mesh, &origin).map_err(mesh_err)?;
         let mesh = place(&raw, &scene.placement).map_err(mesh_err)?;
         let invalid = |key: String, reason: String| SceneError::Invalid { file: origin.label.clone(), key, reason };

@@ -65,6 +65,20 @@ pub trait Solver: Send {
     fn progress(&self) -> Option<Progress> {
         None
     }
+
+    /// Finish background work that is ready (e.g. swap in recomputed modes) without stepping, so a
+    /// paused simulation still shows it; [`Solver::step`] does this too. An error is the background
+    /// work's failure; the solver keeps its previous state. Methods without background work keep the
+    /// default, which does nothing.
+    fn poll(&mut self) -> Result<(), SolverError> {
+        Ok(())
+    }
+
+    /// Read-only figures describing the state in use, as (label, value), for the UI (e.g. the number
+    /// of modes of the active basis while another one is being computed). Empty by default.
+    fn info(&self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
 }
 
 /// A background task's label and completed fraction in `[0, 1]`.

@@ -81,12 +81,6 @@ impl ModalBasis {
         &self.phi[mode * n3..(mode + 1) * n3]
     }
 
-    /// Column `mode` of `Ψ`.
-    pub fn psi_column(&self, mode: usize) -> &[f64] {
-        let n3 = 3 * self.vertex_count();
-        &self.psi[mode * n3..(mode + 1) * n3]
-    }
-
     /// `Φ q` into `out` (`3n` values).
     pub fn combine_phi(&self, q: &[f64], out: &mut [f64]) {
         combine(&self.phi, q, out);

@@ -2,18 +2,21 @@
 //!
 //! Stiffness, density and mode-count changes recompute the modes on a background thread; the step
 //! loop keeps running on the old basis meanwhile and swaps the new one in when it is ready, carrying
-//! the state over by projection. Analyses are cached on disk ([`super::cache`]).
+//! the state over by projection. Analyses are cached on disk ([`super::cache`]). An edit made while
+//! an analysis runs supersedes it: the old run stops at its next stage ([`super::supersede`]), and a
+//! new run starts after a short pause so a burst of edits costs one analysis.
 
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::mpsc::{Receiver, TryRecvError};
 use std::sync::{Arc, mpsc};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use glam::DVec3;
 
 use super::cache;
 use super::compute::{ModalAnalysis, ModalProblem, analyse};
 use super::dynamics::{ModalDynamics, ModalParams};
+use super::supersede::{Generation, unless_superseded};
 use crate::energy::ShellStiffness;
 use crate::mesh::TriMesh;
 use crate::scene::Setup;
@@ -100,7 +103,11 @@ pub struct ModalSolver {
     drags: DragSet,
     steps: u64,
     pending: Option<Pending>,
+    generation: Generation,
 }
+
+/// How long a background analysis waits for further edits before it starts.
+const SETTLE: Duration = Duration::from_millis(200);
 
 impl ModalSolver {
     /// Build from a scene (computing or loading the modes synchronously).
@@ -112,7 +119,9 @@ impl ModalSolver {
         let anchors = Arc::new(setup.anchors.clone());
         let area = setup.mesh.vertex_areas();
         let modes = s.modes;
-        let analysis = modes_for(&mesh, &anchors, &area, m.density, stiffness, modes, &|_| {})?;
+        let method = if warp { MWTS.name } else { LMA.name };
+        let analysis =
+            modes_for(&mesh, &anchors, &area, m.density, stiffness, modes, &|_| {}).map_err(|e| named(e, method))?;
         let params = ModalParams {
             step: PARAMS[8].check(s.step.unwrap_or(1.0 / 30.0))?,
             alpha: s.rayleigh_alpha,
@@ -120,7 +129,7 @@ impl ModalSolver {
             constraint_damping: 1e-2,
         };
         let mut solver = Self {
-            method: if warp { MWTS.name } else { LMA.name },
+            method,
             dynamics: ModalDynamics::new(analysis.basis.clone(), mesh.positions().to_vec(), Vec::new(), warp),
             mesh,
             anchors,
@@ -135,6 +144,7 @@ impl ModalSolver {
             drags: DragSet::new(setup.mesh.vertex_count(), true),
             steps: 0,
             pending: None,
+            generation: Generation::default(),
         };
         solver.update_forces();
         Ok(solver)
@@ -161,9 +171,14 @@ impl ModalSolver {
         let progress = Arc::new(AtomicU32::new(0));
         let (mesh, anchors, area) = (self.mesh.clone(), self.anchors.clone(), self.area.clone());
         let (density, stiffness, modes, p) = (self.density, self.stiffness, self.modes, progress.clone());
+        let ticket = self.generation.next();
         std::thread::spawn(move || {
+            std::thread::sleep(SETTLE);
             let report = move |f: f32| p.store(f.to_bits(), Ordering::Relaxed);
-            let _ = tx.send(modes_for(&mesh, &anchors, &area, density, stiffness, modes, &report));
+            let run = |report: &dyn Fn(f32)| modes_for(&mesh, &anchors, &area, density, stiffness, modes, report);
+            if let Some(result) = unless_superseded(&ticket, &report, run) {
+                let _ = tx.send(result);
+            }
         });
         self.pending = Some(Pending { receiver: rx, progress });
     }
@@ -174,7 +189,7 @@ impl ModalSolver {
         match p.receiver.try_recv() {
             Ok(result) => {
                 self.pending = None;
-                let analysis = result?;
+                let analysis = result.map_err(|e| named(e, self.method))?;
                 let masses = self.masses();
                 self.dynamics.replace_basis(analysis.basis.clone(), &masses);
                 self.analysis = analysis;
@@ -186,6 +201,14 @@ impl ModalSolver {
                 Err(SolverError::Numerical("the background modal analysis stopped".into()))
             }
         }
+    }
+}
+
+/// The modal analysis reports itself as method `modal`: name the method the user chose instead.
+fn named(e: SolverError, method: &'static str) -> SolverError {
+    match e {
+        SolverError::Unsuitable { reason, .. } => SolverError::Unsuitable { method, reason },
+        e => e,
     }
 }
 
@@ -298,5 +321,20 @@ impl Solver for ModalSolver {
             label: format!("computing {} modes", self.modes),
             fraction: f32::from_bits(p.progress.load(Ordering::Relaxed)),
         })
+    }
+
+    fn poll(&mut self) -> Result<(), SolverError> {
+        self.poll_pending()
+    }
+
+    fn info(&self) -> Vec<(&'static str, f64)> {
+        vec![("active modes", self.analysis.basis.modes() as f64)]
+    }
+}
+
+impl Drop for ModalSolver {
+    fn drop(&mut self) {
+        // A background analysis of a solver that is gone is pointless: stop it.
+        self.generation.cancel_all();
     }
 }

@@ -6,4 +6,5 @@ pub mod compute;
 pub mod dynamics;
 pub mod method;
 pub mod rotation;
+pub mod supersede;
 pub mod warp;
