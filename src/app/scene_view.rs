@@ -24,6 +24,10 @@ const GRID: [f32; 4] = [0.25, 0.27, 0.32, 0.6];
 /// Radius of the rotate gizmo, in marker sizes.
 const GIZMO_MARKERS: f32 = 9.0;
 
+/// Colliders are drawn this far inside their true surface (m), so that cloth resting on them
+/// within the contact margin does not flicker through them.
+const INSET: f64 = 0.0025;
+
 /// How to draw.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ViewOptions {
@@ -82,7 +86,7 @@ impl SceneView {
         let mut colliders = Vec::new();
         for body in &setup.bodies {
             let local = match &body.shape {
-                Shape::Sphere { radius } => match generate::icosphere(radius * 0.995, 12) {
+                Shape::Sphere { radius } => match generate::icosphere(radius - INSET, 12) {
                     Ok(ball) => mesh_draw(ball.positions(), ball.triangles(), COLLIDER, COLLIDER),
                     Err(_) => continue,
                 },
@@ -92,12 +96,19 @@ impl SceneView {
                     }
                     let (t, b) = normal.any_orthonormal_pair();
                     let e = 2.0 * size;
-                    let corners = [-t * e - b * e, t * e - b * e, t * e + b * e, -t * e + b * e];
+                    let corners =
+                        [-t * e - b * e, t * e - b * e, t * e + b * e, -t * e + b * e].map(|c| c - *normal * INSET);
                     let tris =
                         if t.cross(b).dot(*normal) > 0.0 { [[0, 1, 2], [0, 2, 3]] } else { [[0, 2, 1], [0, 3, 2]] };
                     mesh_draw(&corners, &tris, [0.8, 0.8, 0.78, 1.0], COLLIDER)
                 }
-                Shape::Mesh(mesh) => mesh_draw(mesh.positions(), mesh.triangles(), COLLIDER, COLLIDER),
+                Shape::Mesh(mesh) => {
+                    let mut draw = mesh_draw(mesh.positions(), mesh.triangles(), COLLIDER, COLLIDER);
+                    for (p, n) in draw.positions.iter_mut().zip(&draw.normals) {
+                        *p = (Vec3::from(*p) - Vec3::from(*n) * INSET as f32).to_array();
+                    }
+                    draw
+                }
             };
             colliders.push(ColliderDraw { at_rest: placed(&local, body, 0.0), local, body: body.clone() });
         }

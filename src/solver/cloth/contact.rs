@@ -6,8 +6,10 @@
 //! the body's velocity), just enough to reach the margin when arriving from further out, and the
 //! recovery of the penetration `−d` when it went inside. The state machine per particle:
 //!
-//! - **stuck** (static friction, and every new contact): all three components prescribed, `S = 0`.
-//! - **sliding**: only the normal component prescribed, `S = I − n̂n̂ᵀ`; kinetic friction
+//! - **stuck** (static friction, and every new contact if `μ_s > 0`): all three components
+//!   prescribed, `S = 0`.
+//! - **sliding** (and every new contact if `μ_s = 0`, which could not hold a locked particle and must
+//!   not hand it the body's tangential velocity): only the normal component prescribed, `S = I − n̂n̂ᵀ`; kinetic friction
 //!   `μ_k N` opposes the relative tangential velocity (explicit, limited so that it can stop the
 //!   particle within the step but never reverse it; when it stops it, the particle sticks again).
 //! - **released**: after the constraint force pulled toward the body; free while it moves away.
@@ -113,7 +115,9 @@ impl Contacts {
             let state = match (self.state[i], near) {
                 (_, false) => ContactState::Free,
                 (ContactState::Released, true) if c.distance >= 0.0 && vn >= 0.0 => ContactState::Released,
-                (ContactState::Free | ContactState::Released, true) => ContactState::Stuck,
+                (ContactState::Free | ContactState::Released, true) if params.mu_s > 0.0 => ContactState::Stuck,
+                // Without friction, locking would hand the particle the body's tangential velocity.
+                (ContactState::Free | ContactState::Released, true) => ContactState::Sliding(0.0),
                 (s, true) => s,
             };
             self.state[i] = state;

@@ -9,7 +9,7 @@ use super::contact::{ContactParams, ContactState, Contacts};
 use super::graph::SpringGraph;
 use super::system::{ClothSystem, SpringParams};
 use crate::collision::Body;
-use crate::linalg::filtered_pcg::{self, Constraint, Stop};
+use crate::linalg::filtered_pcg::{self, Constraint, PcgReport, Stop};
 use crate::scene::{MeshSource, Setup};
 use crate::solver::registry::Method;
 use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Solver, SolverError, StepStats, check_finite};
@@ -105,13 +105,17 @@ pub struct LinearStep {
     pub preconditioner: Vec<glam::DMat3>,
     /// Anchors, drags and contacts.
     pub constraints: Vec<Constraint>,
-    /// The springs' energy at the linearisation point, J.
-    pub spring_energy: f64,
     /// The PCG's absolute floor [`Stop::floor`]: `Σ m̃ (h·max(|g|, 1 m/s²))²`, the error energy of a
     /// velocity error as large as one step of gravity, so that a cloth at rest is not solved to
     /// ever smaller absolute errors.
     pub error_floor: f64,
 }
+
+/// The largest growth of a stretch spring's strain in one step that is accepted (see [`Cloth::advance`]).
+const STRAIN_JUMP: f64 = 0.1;
+
+/// How many times a step may be halved.
+const MAX_HALVINGS: u32 = 4;
 
 /// Default contact margin, m.
 const DEFAULT_MARGIN: f64 = 0.005;
@@ -238,12 +242,16 @@ impl Cloth {
     /// Linearise the next step at the current state: forces, constraints (anchors, drags, contacts,
     /// with the contact states advanced to this step) and the right side. [`Solver::step`] solves it.
     pub fn linearise(&mut self) -> LinearStep {
-        let (n, h) = (self.x.len(), self.h);
+        self.linearise_for(self.h)
+    }
+
+    fn linearise_for(&mut self, h: f64) -> LinearStep {
+        let n = self.x.len();
         let mut force = vec![DVec3::ZERO; n];
-        let spring_energy = self.system.linearise(&self.x, &self.v, self.gravity, h, &mut force);
+        self.system.linearise(&self.x, &self.v, self.gravity, h, &mut force);
         let mut constraints = Vec::new();
         let mut held = vec![false; n];
-        self.hold(&mut held, &mut constraints);
+        self.hold(h, &mut held, &mut constraints);
         self.contacts.constrain(
             &self.bodies,
             self.contact,
@@ -259,42 +267,34 @@ impl Cloth {
             rhs: self.system.rhs(&force, &self.v),
             preconditioner: self.system.block_jacobi(),
             constraints,
-            spring_energy,
         }
     }
 
-    /// Anchors and drags as constraints; marks held particles.
-    fn hold(&self, held: &mut [bool], constraints: &mut Vec<Constraint>) {
-        held.copy_from_slice(&self.anchored);
-        for (i, _) in self.anchored.iter().enumerate().filter(|(_, a)| **a) {
-            constraints.push(Constraint { particle: i, filter: glam::DMat3::ZERO, z: -self.v[i] });
+    /// Advance by `h`: one linearised backward Euler step, or — if a stretch spring's strain grew by
+    /// more than [`STRAIN_JUMP`] in it, which means the linearisation at the start missed the
+    /// geometry (a fast particle stopped by a contact while its neighbours sweep past it) — two steps
+    /// of `h/2`, up to [`MAX_HALVINGS`] times (Baraff & Witkin 1998, §5).
+    fn advance(&mut self, h: f64, halvings: u32) -> PcgReport {
+        let saved = (halvings < MAX_HALVINGS)
+            .then(|| (self.x.clone(), self.v.clone(), self.dv.clone(), self.contacts.clone(), self.time));
+        let report = self.single_step(h);
+        let Some((x, v, dv, contacts, time)) = saved else { return report };
+        if self.system.strain_jump(&self.x) <= STRAIN_JUMP {
+            return report;
         }
-        for (_, d) in self.drags.iter() {
-            if let DragKind::Position(target) = d.kind {
-                let i = d.vertex;
-                if !held[i] {
-                    held[i] = true;
-                    let z = (target - self.x[i]) / self.h - self.v[i];
-                    constraints.push(Constraint { particle: i, filter: glam::DMat3::ZERO, z });
-                }
-            }
+        (self.x, self.v, self.contacts, self.time) = (x, v, contacts, time);
+        self.dv = dv.iter().map(|d| *d * 0.5).collect();
+        let first = self.advance(0.5 * h, halvings + 1);
+        let second = self.advance(0.5 * h, halvings + 1);
+        PcgReport {
+            iterations: report.iterations + first.iterations + second.iterations,
+            relative_residual: first.relative_residual.max(second.relative_residual),
         }
     }
-}
 
-impl Solver for Cloth {
-    fn method(&self) -> &'static str {
-        self.method
-    }
-
-    fn time_step(&self) -> f64 {
-        self.h
-    }
-
-    fn step(&mut self) -> Result<StepStats, SolverError> {
-        let start = Instant::now();
-        let h = self.h;
-        let step = self.linearise();
+    /// One linearised backward Euler step of `h`, solved by the filtered PCG.
+    fn single_step(&mut self, h: f64) -> PcgReport {
+        let step = self.linearise_for(h);
         let system = &self.system;
         let report = filtered_pcg::solve(
             &mut |x, y| system.apply(x, y),
@@ -314,9 +314,43 @@ impl Solver for Cloth {
             *v += *dv;
             *x += *v * h;
         }
-        self.steps += 1;
         self.time += h;
-        let energy = self.system.energy(step.spring_energy, &self.x, &self.v, &self.rest, self.gravity);
+        report
+    }
+
+    /// Anchors and drags (reached at the end of a step of `h`) as constraints; marks held particles.
+    fn hold(&self, h: f64, held: &mut [bool], constraints: &mut Vec<Constraint>) {
+        held.copy_from_slice(&self.anchored);
+        for (i, _) in self.anchored.iter().enumerate().filter(|(_, a)| **a) {
+            constraints.push(Constraint { particle: i, filter: glam::DMat3::ZERO, z: -self.v[i] });
+        }
+        for (_, d) in self.drags.iter() {
+            if let DragKind::Position(target) = d.kind {
+                let i = d.vertex;
+                if !held[i] {
+                    held[i] = true;
+                    let z = (target - self.x[i]) / h - self.v[i];
+                    constraints.push(Constraint { particle: i, filter: glam::DMat3::ZERO, z });
+                }
+            }
+        }
+    }
+}
+
+impl Solver for Cloth {
+    fn method(&self) -> &'static str {
+        self.method
+    }
+
+    fn time_step(&self) -> f64 {
+        self.h
+    }
+
+    fn step(&mut self) -> Result<StepStats, SolverError> {
+        let start = Instant::now();
+        let report = self.advance(self.h, 0);
+        self.steps += 1;
+        let energy = self.system.energy(&self.x, &self.v, &self.rest, self.gravity);
         check_finite(self.steps, self.time, &self.x, energy, self.energy_limit)?;
         Ok(StepStats {
             wall_seconds: start.elapsed().as_secs_f64(),

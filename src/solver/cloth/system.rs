@@ -49,6 +49,8 @@ pub struct ClothSystem {
     /// `m̃ᵢ = mᵢ / wᵢ`.
     scaled_mass: Vec<f64>,
     linear: Vec<Linear>,
+    /// Spring lengths at the last linearisation.
+    length: Vec<f64>,
     h: f64,
 }
 
@@ -58,6 +60,7 @@ impl ClothSystem {
         let scaled_mass = graph.masses.iter().zip(&graph.weights).map(|(m, w)| m / w).collect();
         let mut system = Self {
             linear: vec![Linear::default(); graph.pairs.len()],
+            length: vec![0.0; graph.pairs.len()],
             graph,
             params,
             buckling: Vec::new(),
@@ -104,7 +107,7 @@ impl ClothSystem {
     }
 
     /// Evaluate forces at `(x, v)` with gravity `g` into `force` (scaled by `1/w`), linearise for a
-    /// step of `h`, and return the springs' energy.
+    /// step of `h`, and return the springs' energy at `x`.
     pub fn linearise(&mut self, x: &[DVec3], v: &[DVec3], g: DVec3, h: f64, force: &mut [DVec3]) -> f64 {
         self.h = h;
         for (f, m) in force.iter_mut().zip(&self.scaled_mass) {
@@ -115,6 +118,7 @@ impl ClothSystem {
             let [i, j] = self.graph.pairs[s];
             let d = x[j] - x[i];
             let r = d.length();
+            self.length[s] = r;
             let sp = self.spring(s, r);
             energy += sp.energy;
             let f = sp.force(d) + (v[j] - v[i]) * self.params.k_d;
@@ -132,6 +136,15 @@ impl ClothSystem {
             };
         }
         energy
+    }
+
+    /// The largest growth of a stretch spring's strain `(|x'| − |x|)/L` from the last linearisation to `x`.
+    pub fn strain_jump(&self, x: &[DVec3]) -> f64 {
+        let g = &self.graph;
+        (0..g.pairs.len())
+            .filter(|&s| g.kinds[s] == SpringKind::Stretch)
+            .map(|s| ((x[g.pairs[s][1]] - x[g.pairs[s][0]]).length() - self.length[s]) / g.rest[s])
+            .fold(0.0, f64::max)
     }
 
     /// `out = (α M̃ + β D + γ K) v`: `D` the damping Laplacian (`k_d` per spring), `K` the stiffness.
@@ -174,8 +187,9 @@ impl ClothSystem {
     }
 
     /// Springs' energy at `x` plus `½ Σ m̃ |v|²` minus the work of gravity `Σ m̃ g·(x − rest)`, J.
-    pub fn energy(&self, spring_energy: f64, x: &[DVec3], v: &[DVec3], rest: &[DVec3], g: DVec3) -> f64 {
-        let mut e = spring_energy;
+    pub fn energy(&self, x: &[DVec3], v: &[DVec3], rest: &[DVec3], g: DVec3) -> f64 {
+        let mut e: f64 =
+            self.graph.pairs.iter().enumerate().map(|(s, &[i, j])| self.spring(s, (x[j] - x[i]).length()).energy).sum();
         for (((x, v), r), m) in x.iter().zip(v).zip(rest).zip(&self.scaled_mass) {
             e += 0.5 * m * v.length_squared() - m * g.dot(*x - *r);
         }
