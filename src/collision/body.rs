@@ -81,9 +81,32 @@ impl Body {
 
     /// Signed distance, outward normal and body velocity at world point `x` and time `t`.
     pub fn contact(&self, x: DVec3, t: f64) -> Contact {
+        self.at(t).contact(x)
+    }
+
+    /// The body placed at time `t`, for many queries at that time.
+    pub fn at(&self, t: f64) -> Placed<'_> {
         let (centre, rotation) = self.pose(t);
-        let local = rotation.inverse() * (x - centre);
-        let (distance, normal) = match &self.shape {
+        Placed { body: self, centre, rotation, inverse: rotation.inverse(), velocity: self.origin_velocity(t) }
+    }
+}
+
+/// A [`Body`] at one instant: its pose and velocity computed once.
+#[derive(Debug, Clone, Copy)]
+pub struct Placed<'a> {
+    body: &'a Body,
+    centre: DVec3,
+    rotation: DQuat,
+    inverse: DQuat,
+    velocity: DVec3,
+}
+
+impl Placed<'_> {
+    /// Signed distance, outward normal and body velocity at world point `x`.
+    pub fn contact(&self, x: DVec3) -> Contact {
+        let (centre, rotation) = (self.centre, self.rotation);
+        let local = self.inverse * (x - centre);
+        let (distance, normal) = match &self.body.shape {
             Shape::Sphere { radius } => {
                 let r = local.length();
                 let n = if r > 0.0 { local / r } else { DVec3::Y };
@@ -92,7 +115,7 @@ impl Body {
             Shape::Plane { normal } => (local.dot(*normal), *normal),
             Shape::Mesh(mesh) => mesh.signed_distance(local),
         };
-        let velocity = self.origin_velocity(t) + self.motion.spin.cross(x - centre);
+        let velocity = self.velocity + self.body.motion.spin.cross(x - centre);
         Contact { distance, normal: rotation * normal, velocity }
     }
 }

@@ -5,7 +5,7 @@
 mod body;
 mod mesh_distance;
 
-pub use body::{Body, Contact, Motion, Shape};
+pub use body::{Body, Contact, Motion, Placed, Shape};
 pub use mesh_distance::MeshDistance;
 
 /// Why a body could not be made.

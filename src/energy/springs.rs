@@ -36,6 +36,11 @@ pub struct Spring {
 }
 
 impl Spring {
+    /// `(tension, stiffness)`.
+    pub fn tension_stiffness(&self) -> (f64, f64) {
+        (self.tension, self.stiffness)
+    }
+
     /// The force on the first end, `T x̂` with `x̂ = d/|d|`, `d = x₁ − x₀` (zero if `d = 0`).
     pub fn force(&self, d: DVec3) -> DVec3 {
         let r = d.length();
@@ -220,26 +225,43 @@ impl Buckling {
         self.rest
     }
 
-    /// The response at length `r`: zero at or beyond rest length, `f_b*` in compression.
-    pub fn eval(&self, r: f64) -> Spring {
+    /// `(tension, stiffness)` at length `r`, without the energy (the hot path of a step).
+    pub fn tension_stiffness(&self, r: f64) -> (f64, f64) {
         let (l, t) = (self.rest, 1.0 - r / self.rest);
         if t <= 0.0 {
-            return Spring::default();
+            return (0.0, 0.0);
+        }
+        let (t1, t2) = self.buckling;
+        if t >= t1 && t <= t2 && t1 < t2 {
+            let (f, df) = BucklingCurve::get().force(1.0 - t);
+            return (-self.k_b / (l * l) * f, -self.k_b / (l * l * l) * df);
+        }
+        (-self.c_b * l * t, self.c_b)
+    }
+
+    /// The energy at length `r`: the integral of `f_b*` from the rest length.
+    pub fn energy(&self, r: f64) -> f64 {
+        let (l, t) = (self.rest, 1.0 - r / self.rest);
+        if t <= 0.0 {
+            return 0.0;
         }
         let curve = BucklingCurve::get();
         let (t1, t2) = self.buckling;
-        let linear_energy = |a: f64, b: f64| 0.5 * self.c_b * l * l * (b * b - a * a);
-        let buckling_energy = |a: f64, b: f64| self.k_b / l * (curve.energy(1.0 - b) - curve.energy(1.0 - a));
-        if t >= t1 && t <= t2 && t1 < t2 {
-            let (f, df) = curve.force(1.0 - t);
-            let energy = linear_energy(0.0, t1) + buckling_energy(t1, t);
-            return Spring { energy, tension: -self.k_b / (l * l) * f, stiffness: -self.k_b / (l * l * l) * df };
+        let linear = |a: f64, b: f64| 0.5 * self.c_b * l * l * (b * b - a * a);
+        let buckling = |a: f64, b: f64| self.k_b / l * (curve.energy(1.0 - b) - curve.energy(1.0 - a));
+        if t1 >= t2 || t <= t1 {
+            linear(0.0, t)
+        } else if t <= t2 {
+            linear(0.0, t1) + buckling(t1, t)
+        } else {
+            linear(0.0, t1) + buckling(t1, t2) + linear(t2, t)
         }
-        let mut energy = linear_energy(0.0, t);
-        if t > t2 && t1 < t2 {
-            energy = linear_energy(0.0, t1) + buckling_energy(t1, t2) + linear_energy(t2, t);
-        }
-        Spring { energy, tension: -self.c_b * l * t, stiffness: self.c_b }
+    }
+
+    /// The response at length `r`: zero at or beyond rest length, `f_b*` in compression.
+    pub fn eval(&self, r: f64) -> Spring {
+        let (tension, stiffness) = self.tension_stiffness(r);
+        Spring { energy: self.energy(r), tension, stiffness }
     }
 }
 
@@ -309,7 +331,8 @@ mod tests {
     #[test]
     fn scalar_springs_match_finite_differences() {
         let l = 0.04;
-        let cases: Vec<(Box<dyn Fn(f64) -> Spring>, f64, f64)> = vec![
+        type Case = (Box<dyn Fn(f64) -> Spring>, f64, f64);
+        let cases: Vec<Case> = vec![
             (Box::new(move |r| stretch(r, l, 200.0)), 1.0005, 1.5),
             (Box::new(move |r| Buckling::new(l, 1e-6, 200.0).eval(r)), 0.02, 0.99999),
             (Box::new(move |r| Buckling::new(l, 1e-3, 600.0).eval(r)), 0.02, 0.99), // β = 38.4: two changes

@@ -49,22 +49,25 @@ fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
     a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
 }
 
-/// When to stop: `δ ≤ tolerance² · max(δ₀, floor)`, or after `max_iterations`.
+/// When to stop: `δ ≤ max(tolerance² · δ₀, absolute)`, or after `max_iterations`.
 ///
-/// `δ = rᵀP⁻¹r` is about `eᵀAe` for the error `e` of `Δv`, so `floor` is an absolute scale of that
-/// error's energy below which a small `δ₀` (a system near rest) is not refined further.
+/// `δ = rᵀP⁻¹r` is about `eᵀAe` for the error `e` of `Δv`, so `absolute` is an error energy small
+/// enough to stop at even when `δ₀` is tiny (a system near rest, where a relative criterion would
+/// chase ever smaller absolute errors).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Stop {
     /// Relative tolerance on `√δ`.
     pub tolerance: f64,
-    /// Absolute floor for `δ₀`.
-    pub floor: f64,
+    /// Absolute threshold for `δ`.
+    pub absolute: f64,
     /// Iteration cap.
     pub max_iterations: u32,
 }
 
 /// Solve with operator `apply(x, y)` (`y = A x`), block-Jacobi inverse `p_inv`, the constraints, right
-/// side `b` and warm start / result `dv`.
+/// side `b` and warm start / result `dv`. `residual` receives `b − A Δv` unfiltered: on the
+/// constrained directions it is minus the constraint's impulse (updated alongside the filtered
+/// residual, so it costs no extra product with `A`).
 pub fn solve(
     apply: &mut impl FnMut(&[DVec3], &mut [DVec3]),
     p_inv: &[DMat3],
@@ -72,6 +75,7 @@ pub fn solve(
     b: &[DVec3],
     dv: &mut [DVec3],
     stop: Stop,
+    residual: &mut [DVec3],
 ) -> PcgReport {
     let n = b.len();
     let mut z = vec![DVec3::ZERO; n];
@@ -86,25 +90,29 @@ pub fn solve(
     let delta0: f64 = b_hat.iter().zip(p_inv).map(|(r, p)| r.dot(*p * *r)).sum();
     if delta0 <= 0.0 {
         dv.copy_from_slice(&z);
+        residual.iter_mut().zip(b).zip(&scratch).for_each(|((r, b), az)| *r = *b - *az);
         return PcgReport::default();
     }
     apply(dv, &mut scratch);
-    let mut r: Vec<DVec3> = b.iter().zip(&scratch).map(|(b, a)| *b - *a).collect();
+    residual.iter_mut().zip(b).zip(&scratch).for_each(|((r, b), a)| *r = *b - *a);
+    let mut r = residual.to_vec();
     filter(constraints, &mut r);
     let mut c: Vec<DVec3> = r.iter().zip(p_inv).map(|(r, p)| *p * *r).collect();
     filter(constraints, &mut c);
     let mut delta = dot(&r, &c);
     let mut q = scratch;
     let mut iterations = 0;
-    let target = stop.tolerance * stop.tolerance * delta0.max(stop.floor);
+    let target = (stop.tolerance * stop.tolerance * delta0).max(stop.absolute);
     while delta > target && iterations < stop.max_iterations {
         apply(&c, &mut q);
-        filter(constraints, &mut q);
+        // c = S c and S is an orthogonal projection, so cᵀ(S q) = cᵀq.
         let cq = dot(&c, &q);
         if cq <= 0.0 || !cq.is_finite() {
             break; // not positive definite on the free subspace (or broken input): stop where we are
         }
         let alpha = delta / cq;
+        residual.iter_mut().zip(&q).for_each(|(r, q)| *r -= *q * alpha);
+        filter(constraints, &mut q);
         let mut next = 0.0;
         for i in 0..n {
             dv[i] += c[i] * alpha;
@@ -167,8 +175,9 @@ mod tests {
             }
         };
         let mut dv: Vec<DVec3> = (0..n).map(|i| DVec3::splat(0.1 * i as f64)).collect(); // a warm start
-        let stop = Stop { tolerance: 1e-14, floor: 0.0, max_iterations: 500 };
-        let report = solve(&mut apply, &p_inv, &constraints, &b, &mut dv, stop);
+        let stop = Stop { tolerance: 1e-14, absolute: 0.0, max_iterations: 500 };
+        let mut residual = vec![DVec3::ZERO; n];
+        let report = solve(&mut apply, &p_inv, &constraints, &b, &mut dv, stop, &mut residual);
         assert!(report.relative_residual <= 1e-14, "{report:?}");
         // Reduced basis T: identity columns for free particles, the filter's range for constrained ones.
         let mut columns: Vec<DVector<f64>> = Vec::new();
@@ -200,6 +209,12 @@ mod tests {
             let got = dv[i];
             let err = (got - DVec3::new(want[3 * i], want[3 * i + 1], want[3 * i + 2])).length();
             assert!(err < 1e-8 * want.amax(), "particle {i}: {got} vs {:?}", want.rows(3 * i, 3));
+        }
+        // The tracked residual is b − A Δv.
+        let mut a_dv = vec![DVec3::ZERO; n];
+        apply(&dv, &mut a_dv);
+        for i in 0..n {
+            assert!((residual[i] - (b[i] - a_dv[i])).length() < 1e-10, "residual of particle {i}");
         }
         // Constrained components equal z: exactly for the fixed particle, to round-off for projections.
         assert_eq!(dv[1], constraints[0].z);

@@ -20,7 +20,7 @@
 
 use glam::{DMat3, DVec3};
 
-use crate::collision::{Body, Contact};
+use crate::collision::{Body, Contact, Placed};
 use crate::energy::hinge::outer;
 use crate::linalg::filtered_pcg::Constraint;
 
@@ -102,12 +102,13 @@ impl Contacts {
         if bodies.is_empty() {
             return;
         }
+        let placed: Vec<Placed<'_>> = bodies.iter().map(|b| b.at(t)).collect();
         for i in 0..x.len() {
             if held[i] {
                 self.state[i] = ContactState::Free;
                 continue;
             }
-            let Some(c) = nearest(bodies, x[i], t) else { continue };
+            let Some(c) = nearest(&placed, x[i]) else { continue };
             self.deepest = self.deepest.min(c.distance);
             let rel = v[i] - c.velocity;
             let vn = rel.dot(c.normal);
@@ -148,10 +149,11 @@ impl Contacts {
         }
     }
 
-    /// Decide the next states from the constraint residual `A Δv − b` (per particle) of the solve.
+    /// Decide the next states from the solve's residual `b − A Δv` (per particle), whose constrained
+    /// part is minus the constraint impulse.
     pub fn update(&mut self, params: ContactParams, residual: &[DVec3], h: f64) {
         for a in &self.active {
-            let f = residual[a.particle] / h;
+            let f = -residual[a.particle] / h;
             let normal = f.dot(a.normal);
             let tangential = (f - a.normal * normal).length();
             self.state[a.particle] = match self.state[a.particle] {
@@ -163,14 +165,9 @@ impl Contacts {
             };
         }
     }
-
-    /// The particles constrained this step.
-    pub fn active_particles(&self) -> impl Iterator<Item = usize> + '_ {
-        self.active.iter().map(|a| a.particle)
-    }
 }
 
 /// The body the point is closest to (by signed distance).
-fn nearest(bodies: &[Body], x: DVec3, t: f64) -> Option<Contact> {
-    bodies.iter().map(|b| b.contact(x, t)).min_by(|a, b| a.distance.total_cmp(&b.distance))
+fn nearest(bodies: &[Placed<'_>], x: DVec3) -> Option<Contact> {
+    bodies.iter().map(|b| b.contact(x)).min_by(|a, b| a.distance.total_cmp(&b.distance))
 }

@@ -105,22 +105,25 @@ pub struct LinearStep {
     pub preconditioner: Vec<glam::DMat3>,
     /// Anchors, drags and contacts.
     pub constraints: Vec<Constraint>,
-    /// The PCG's absolute floor [`Stop::floor`]: `Σ m̃ (h·max(|g|, 1 m/s²))²`, the error energy of a
-    /// velocity error as large as one step of gravity, so that a cloth at rest is not solved to
-    /// ever smaller absolute errors.
+    /// The PCG's [`Stop::absolute`]: `Σ m̃ (1 mm/s)²`, the error energy of a velocity error of 1 mm/s
+    /// everywhere, so that a cloth at rest is not solved to ever smaller absolute errors.
     pub error_floor: f64,
 }
 
 /// The largest growth of a stretch spring's strain in one step that is accepted (see [`Cloth::advance`]).
-const STRAIN_JUMP: f64 = 0.1;
+const STRAIN_JUMP: f64 = 0.05;
 
 /// How many times a step may be halved.
 const MAX_HALVINGS: u32 = 4;
+
+/// A velocity error the PCG need not resolve, m/s (see [`LinearStep::error_floor`]).
+const VELOCITY_FLOOR: f64 = 1e-3;
 
 /// Default contact margin, m.
 const DEFAULT_MARGIN: f64 = 0.005;
 
 /// The cloth solver.
+#[derive(Debug, Clone)]
 pub struct Cloth {
     method: &'static str,
     system: ClothSystem,
@@ -261,9 +264,8 @@ impl Cloth {
             &mut force,
             &mut constraints,
         );
-        let gh = h * self.gravity.length().max(1.0);
         LinearStep {
-            error_floor: self.system.scaled_masses().iter().sum::<f64>() * gh * gh,
+            error_floor: self.system.scaled_masses().iter().sum::<f64>() * VELOCITY_FLOOR * VELOCITY_FLOOR,
             rhs: self.system.rhs(&force, &self.v),
             preconditioner: self.system.block_jacobi(),
             constraints,
@@ -296,20 +298,17 @@ impl Cloth {
     fn single_step(&mut self, h: f64) -> PcgReport {
         let step = self.linearise_for(h);
         let system = &self.system;
+        let mut residual = vec![DVec3::ZERO; self.x.len()];
         let report = filtered_pcg::solve(
             &mut |x, y| system.apply(x, y),
             &step.preconditioner,
             &step.constraints,
             &step.rhs,
             &mut self.dv,
-            Stop { tolerance: self.tolerance, floor: step.error_floor, max_iterations: self.iterations },
+            Stop { tolerance: self.tolerance, absolute: step.error_floor, max_iterations: self.iterations },
+            &mut residual,
         );
-        if self.contacts.active_particles().next().is_some() {
-            let mut residual = vec![DVec3::ZERO; self.x.len()];
-            self.system.apply(&self.dv, &mut residual);
-            residual.iter_mut().zip(&step.rhs).for_each(|(r, b)| *r -= *b);
-            self.contacts.update(self.contact, &residual, h);
-        }
+        self.contacts.update(self.contact, &residual, h);
         for ((x, v), dv) in self.x.iter_mut().zip(&mut self.v).zip(&self.dv) {
             *v += *dv;
             *x += *v * h;

@@ -16,15 +16,7 @@
 use glam::{DMat3, DVec3};
 
 use super::graph::{SpringGraph, SpringKind};
-use crate::energy::springs::{self, Buckling, Spring};
-
-/// Per-spring linearisation: direction and the stiffness split `S x̂x̂ᵀ`-part `a` and isotropic part `b`.
-#[derive(Debug, Clone, Copy, Default)]
-struct Linear {
-    dir: DVec3,
-    a: f64,
-    b: f64,
-}
+use crate::energy::springs::{self, Buckling};
 
 /// Spring stiffnesses and damping, per spring.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -48,7 +40,10 @@ pub struct ClothSystem {
     buckling: Vec<Buckling>,
     /// `m̃ᵢ = mᵢ / wᵢ`.
     scaled_mass: Vec<f64>,
-    linear: Vec<Linear>,
+    /// Per spring, the kept stiffness `K = a x̂x̂ᵀ + b I` and the step's block `G = h k_d I + h² K`,
+    /// as upper triangles (xx, xy, xz, yy, yz, zz).
+    stiffness: Vec<[f64; 6]>,
+    step_matrix: Vec<[f64; 6]>,
     /// Spring lengths at the last linearisation.
     length: Vec<f64>,
     h: f64,
@@ -59,7 +54,8 @@ impl ClothSystem {
     pub fn new(graph: SpringGraph, params: SpringParams) -> Self {
         let scaled_mass = graph.masses.iter().zip(&graph.weights).map(|(m, w)| m / w).collect();
         let mut system = Self {
-            linear: vec![Linear::default(); graph.pairs.len()],
+            stiffness: vec![[0.0; 6]; graph.pairs.len()],
+            step_matrix: vec![[0.0; 6]; graph.pairs.len()],
             length: vec![0.0; graph.pairs.len()],
             graph,
             params,
@@ -99,43 +95,48 @@ impl ClothSystem {
         &self.scaled_mass
     }
 
-    fn spring(&self, s: usize, r: f64) -> Spring {
-        match self.graph.kinds[s] {
-            SpringKind::Stretch => springs::stretch(r, self.graph.rest[s], self.params.k_s),
-            SpringKind::Buckling => self.buckling[s].eval(r),
-        }
-    }
-
-    /// Evaluate forces at `(x, v)` with gravity `g` into `force` (scaled by `1/w`), linearise for a
-    /// step of `h`, and return the springs' energy at `x`.
-    pub fn linearise(&mut self, x: &[DVec3], v: &[DVec3], g: DVec3, h: f64, force: &mut [DVec3]) -> f64 {
+    /// Evaluate forces at `(x, v)` with gravity `g` into `force` (scaled by `1/w`) and linearise them
+    /// for a step of `h`.
+    pub fn linearise(&mut self, x: &[DVec3], v: &[DVec3], g: DVec3, h: f64, force: &mut [DVec3]) {
         self.h = h;
         for (f, m) in force.iter_mut().zip(&self.scaled_mass) {
             *f = g * *m;
         }
-        let mut energy = 0.0;
+        let (k_s, k_d) = (self.params.k_s, self.params.k_d);
         for s in 0..self.graph.pairs.len() {
             let [i, j] = self.graph.pairs[s];
             let d = x[j] - x[i];
             let r = d.length();
             self.length[s] = r;
-            let sp = self.spring(s, r);
-            energy += sp.energy;
-            let f = sp.force(d) + (v[j] - v[i]) * self.params.k_d;
+            let (tension, stiffness) = match self.graph.kinds[s] {
+                SpringKind::Stretch => springs::stretch(r, self.graph.rest[s], k_s).tension_stiffness(),
+                SpringKind::Buckling => self.buckling[s].tension_stiffness(r),
+            };
+            let dir = if r > 0.0 { d / r } else { DVec3::ZERO };
+            let f = dir * tension + (v[j] - v[i]) * k_d;
             force[i] += f;
             force[j] -= f;
-            let dir = if r > 0.0 { d / r } else { DVec3::ZERO };
-            self.linear[s] = match self.graph.kinds[s] {
+            let (a, b) = match self.graph.kinds[s] {
                 // Stretched: the exact Jacobian k_s x̂x̂ᵀ + (T/r)(I − x̂x̂ᵀ). Slack (T = 0): still k_s x̂x̂ᵀ
                 // along the spring — see the module doc.
-                SpringKind::Stretch if r > 0.0 => {
-                    Linear { dir, a: self.params.k_s - sp.tension / r, b: sp.tension / r }
-                }
+                SpringKind::Stretch if r > 0.0 => (k_s - tension / r, tension / r),
                 // Longitudinal term only (Choi & Ko), S ≥ 0.
-                _ => Linear { dir, a: sp.stiffness, b: 0.0 },
+                _ => (stiffness, 0.0),
             };
+            // K = a x̂x̂ᵀ + b I (upper triangle xx, xy, xz, yy, yz, zz), and G = h k_d I + h² K.
+            let k = [
+                a * dir.x * dir.x + b,
+                a * dir.x * dir.y,
+                a * dir.x * dir.z,
+                a * dir.y * dir.y + b,
+                a * dir.y * dir.z,
+                a * dir.z * dir.z + b,
+            ];
+            let (h2, damping) = (h * h, h * k_d);
+            self.stiffness[s] = k;
+            self.step_matrix[s] =
+                [h2 * k[0] + damping, h2 * k[1], h2 * k[2], h2 * k[3] + damping, h2 * k[4], h2 * k[5] + damping];
         }
-        energy
     }
 
     /// The largest growth of a stretch spring's strain `(|x'| − |x|)/L` from the last linearisation to `x`.
@@ -147,15 +148,16 @@ impl ClothSystem {
             .fold(0.0, f64::max)
     }
 
-    /// `out = (α M̃ + β D + γ K) v`: `D` the damping Laplacian (`k_d` per spring), `K` the stiffness.
-    fn product(&self, v: &[DVec3], out: &mut [DVec3], alpha: f64, beta: f64, gamma: f64) {
-        for ((o, v), m) in out.iter_mut().zip(v).zip(&self.scaled_mass) {
-            *o = *v * (alpha * m);
-        }
-        let damping = beta * self.params.k_d;
-        for (&[i, j], l) in self.graph.pairs.iter().zip(&self.linear) {
+    /// `out += Σ_springs` of the symmetric 3 × 3 blocks `blocks` (upper triangles) applied to `v`
+    /// as a Laplacian: `+B (vᵢ − vⱼ)` on `i`, `−B (vᵢ − vⱼ)` on `j`.
+    fn add_spring_product(&self, blocks: &[[f64; 6]], v: &[DVec3], out: &mut [DVec3]) {
+        for (&[i, j], g) in self.graph.pairs.iter().zip(blocks) {
             let d = v[i] - v[j];
-            let y = l.dir * (gamma * l.a * l.dir.dot(d)) + d * (gamma * l.b + damping);
+            let y = DVec3::new(
+                g[0] * d.x + g[1] * d.y + g[2] * d.z,
+                g[1] * d.x + g[3] * d.y + g[4] * d.z,
+                g[2] * d.x + g[4] * d.y + g[5] * d.z,
+            );
             out[i] += y;
             out[j] -= y;
         }
@@ -163,33 +165,45 @@ impl ClothSystem {
 
     /// `out = A v` with the step's matrix `A = M̃ + h D + h² K`.
     pub fn apply(&self, v: &[DVec3], out: &mut [DVec3]) {
-        self.product(v, out, 1.0, self.h, self.h * self.h);
+        for ((o, v), m) in out.iter_mut().zip(v).zip(&self.scaled_mass) {
+            *o = *v * *m;
+        }
+        self.add_spring_product(&self.step_matrix, v, out);
     }
 
     /// The step's right side `b = h f̃₀ − h² K v₀`.
     pub fn rhs(&self, force: &[DVec3], v: &[DVec3]) -> Vec<DVec3> {
         let mut kv = vec![DVec3::ZERO; v.len()];
-        self.product(v, &mut kv, 0.0, 0.0, 1.0);
+        self.add_spring_product(&self.stiffness, v, &mut kv);
         force.iter().zip(&kv).map(|(f, kv)| *f * self.h - *kv * (self.h * self.h)).collect()
     }
 
     /// Inverses of the 3 × 3 diagonal blocks of `A` (the block-Jacobi preconditioner).
     pub fn block_jacobi(&self) -> Vec<DMat3> {
-        let mut diag: Vec<DMat3> = self.scaled_mass.iter().map(|m| DMat3::from_diagonal(DVec3::splat(*m))).collect();
-        let h2 = self.h * self.h;
-        for (&[i, j], l) in self.graph.pairs.iter().zip(&self.linear) {
-            let g = crate::energy::hinge::outer(l.dir, l.dir) * (h2 * l.a)
-                + DMat3::from_diagonal(DVec3::splat(h2 * l.b + self.h * self.params.k_d));
-            diag[i] += g;
-            diag[j] += g;
+        let mut diag: Vec<[f64; 6]> = self.scaled_mass.iter().map(|&m| [m, 0.0, 0.0, m, 0.0, m]).collect();
+        for (&[i, j], g) in self.graph.pairs.iter().zip(&self.step_matrix) {
+            for k in 0..6 {
+                diag[i][k] += g[k];
+                diag[j][k] += g[k];
+            }
         }
-        diag.iter().map(DMat3::inverse).collect()
+        diag.iter()
+            .map(|d| DMat3::from_cols_array(&[d[0], d[1], d[2], d[1], d[3], d[4], d[2], d[4], d[5]]).inverse())
+            .collect()
     }
 
     /// Springs' energy at `x` plus `½ Σ m̃ |v|²` minus the work of gravity `Σ m̃ g·(x − rest)`, J.
     pub fn energy(&self, x: &[DVec3], v: &[DVec3], rest: &[DVec3], g: DVec3) -> f64 {
-        let mut e: f64 =
-            self.graph.pairs.iter().enumerate().map(|(s, &[i, j])| self.spring(s, (x[j] - x[i]).length()).energy).sum();
+        let graph = &self.graph;
+        let mut e: f64 = (graph.pairs.iter().enumerate())
+            .map(|(s, &[i, j])| {
+                let r = (x[j] - x[i]).length();
+                match graph.kinds[s] {
+                    SpringKind::Stretch => springs::stretch(r, graph.rest[s], self.params.k_s).energy,
+                    SpringKind::Buckling => self.buckling[s].energy(r),
+                }
+            })
+            .sum();
         for (((x, v), r), m) in x.iter().zip(v).zip(rest).zip(&self.scaled_mass) {
             e += 0.5 * m * v.length_squared() - m * g.dot(*x - *r);
         }
@@ -262,17 +276,16 @@ mod tests {
         let still = vec![DVec3::ZERO; n];
         let mut f = vec![DVec3::ZERO; n];
         sys.linearise(&x, &still, DVec3::ZERO, 1.0, &mut f);
-        let mut probe = sys.clone();
-        let mut scratch = vec![DVec3::ZERO; n];
+        let probe = sys.clone();
         let scale = f.iter().map(|v| v.abs().max_element()).fold(0.0, f64::max);
         for i in (0..n).step_by(3) {
             for a in 0..3 {
                 let e = 1e-7;
                 let mut p = x.clone();
                 p[i][a] += e;
-                let ep = probe.linearise(&p, &still, DVec3::ZERO, 1.0, &mut scratch);
+                let ep = probe.energy(&p, &still, &x, DVec3::ZERO);
                 p[i][a] -= 2.0 * e;
-                let em = probe.linearise(&p, &still, DVec3::ZERO, 1.0, &mut scratch);
+                let em = probe.energy(&p, &still, &x, DVec3::ZERO);
                 let fd = -(ep - em) / (2.0 * e);
                 assert!((fd - f[i][a]).abs() < 1e-6 * scale, "particle {i}[{a}]: {} vs fd {fd}", f[i][a]);
             }
