@@ -352,7 +352,8 @@ impl Running {
         let paint = self.panel(&snapshot);
         let camera = self.orbit.camera();
         let options_view = ViewOptions { wireframe: self.panel.wireframe };
-        let mut frame = self.view.frame(camera, &snapshot.positions, &snapshot.drags, options_view);
+        let mut frame =
+            self.view.frame(camera, &snapshot.positions, snapshot.stats.sim_time, &snapshot.drags, options_view);
         frame.viewport = Some(self.viewport_rect());
         self.window.request_redraw();
         let Some(texture) = self.surface.draw(&frame, paint)? else { return Ok(false) };

@@ -50,14 +50,16 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let mut solver = solver::build(&setup).with_context(|| format!("building solver for {}", setup.origin.label))?;
     // Open the GPU before simulating: a missing adapter or a size it cannot draw fails at once.
     let mut headless = Headless::new(args.size.0, args.size.1).context("starting the renderer")?;
+    let mut time = 0.0;
     for _ in 0..args.frames {
-        if let Err(e) = solver.step() {
-            bail!("{}: simulation diverged before the picture: {e}", setup.origin.label);
+        match solver.step() {
+            Ok(stats) => time = stats.sim_time,
+            Err(e) => bail!("{}: simulation diverged before the picture: {e}", setup.origin.label),
         }
     }
     let view = SceneView::new(&setup);
     let drags: Vec<_> = solver.drags().iter().copied().collect();
-    let frame = view.frame(view.camera(), solver.positions(), &drags, ViewOptions { wireframe: args.wireframe });
+    let frame = view.frame(view.camera(), solver.positions(), time, &drags, ViewOptions { wireframe: args.wireframe });
     let image = headless.render(&frame).context("rendering")?;
     // The error names the file already.
     save_png(&image, &args.out).context("saving the picture")?;

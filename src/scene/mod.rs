@@ -11,7 +11,9 @@ mod validate;
 
 pub use builtin::{BUILTIN, builtin_names};
 pub use error::SceneError;
-pub use schema::{Aabb, CameraSpec, Collider, Load, Material, MeshSource, Placement, Scene, Selection, SolverSettings};
+pub use schema::{
+    Aabb, CameraSpec, Collider, Load, Material, MeshSource, Motion, Placement, Scene, Selection, SolverSettings,
+};
 pub use setup::Setup;
 
 use std::path::{Path, PathBuf};

@@ -4,6 +4,7 @@
 //! The viewer, the headless renderer, `sim` and `eval` drive solvers only through this trait, so a
 //! new method is one new file plus one line in [`registry::METHODS`].
 
+pub mod cloth;
 mod drag;
 mod ds_explicit;
 mod ds_implicit;
