@@ -83,7 +83,7 @@ fn pcg_matches_a_direct_sparse_solve_of_the_filtered_system() {
     assert!(kinds[0] > 10, "the drape has locked contacts by now: {kinds:?}");
     let system = cloth.system();
     let mut dv = vec![DVec3::ZERO; n];
-    let stop = Stop { tolerance: 1e-14, absolute: 0.0, max_iterations: 20_000 };
+    let stop = Stop { tolerance: 1e-14, floor: 0.0, max_iterations: 20_000 };
     let mut residual = vec![DVec3::ZERO; n];
     let report = filtered_pcg::solve(
         &mut |x, y| system.apply(x, y),

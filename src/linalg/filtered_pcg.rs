@@ -31,12 +31,23 @@ pub struct Constraint {
 }
 
 /// How a solve ended.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PcgReport {
     /// Iterations taken.
     pub iterations: u32,
+    /// Final preconditioned residual norm `√δ = √(rᵀP⁻¹r)`.
+    pub residual: f64,
     /// Final preconditioned residual relative to the start, `√(δ/δ₀)` (0 if `b̂ = 0`).
     pub relative_residual: f64,
+    /// Whether the stopping criterion was met (rather than the iteration cap hit).
+    pub converged: bool,
+}
+
+impl Default for PcgReport {
+    /// A solve that had nothing to do.
+    fn default() -> Self {
+        Self { iterations: 0, residual: 0.0, relative_residual: 0.0, converged: true }
+    }
 }
 
 fn filter(constraints: &[Constraint], x: &mut [DVec3]) {
@@ -49,17 +60,17 @@ fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
     a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
 }
 
-/// When to stop: `δ ≤ max(tolerance² · δ₀, absolute)`, or after `max_iterations`.
+/// When to stop: `δ ≤ tolerance² · max(δ₀, floor)`, or after `max_iterations`.
 ///
-/// `δ = rᵀP⁻¹r` is about `eᵀAe` for the error `e` of `Δv`, so `absolute` is an error energy small
-/// enough to stop at even when `δ₀` is tiny (a system near rest, where a relative criterion would
-/// chase ever smaller absolute errors).
+/// `δ = rᵀP⁻¹r` is about `eᵀAe` for the error `e` of `Δv`, so `floor` is an error energy scale that
+/// the tolerance is taken relative to when `δ₀` is smaller (a system near rest, where a purely
+/// relative criterion would chase ever smaller absolute errors).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Stop {
     /// Relative tolerance on `√δ`.
     pub tolerance: f64,
-    /// Absolute threshold for `δ`.
-    pub absolute: f64,
+    /// Lower bound of the reference `δ₀`.
+    pub floor: f64,
     /// Iteration cap.
     pub max_iterations: u32,
 }
@@ -102,7 +113,7 @@ pub fn solve(
     let mut delta = dot(&r, &c);
     let mut q = scratch;
     let mut iterations = 0;
-    let target = (stop.tolerance * stop.tolerance * delta0).max(stop.absolute);
+    let target = stop.tolerance * stop.tolerance * delta0.max(stop.floor);
     while delta > target && iterations < stop.max_iterations {
         apply(&c, &mut q);
         // c = S c and S is an orthogonal projection, so cᵀ(S q) = cᵀq.
@@ -129,7 +140,13 @@ pub fn solve(
         delta = next;
         iterations += 1;
     }
-    PcgReport { iterations, relative_residual: (delta.max(0.0) / delta0).sqrt() }
+    let delta = delta.max(0.0);
+    PcgReport {
+        iterations,
+        residual: delta.sqrt(),
+        relative_residual: (delta / delta0).sqrt(),
+        converged: delta <= target,
+    }
 }
 
 #[cfg(test)]
@@ -175,7 +192,7 @@ mod tests {
             }
         };
         let mut dv: Vec<DVec3> = (0..n).map(|i| DVec3::splat(0.1 * i as f64)).collect(); // a warm start
-        let stop = Stop { tolerance: 1e-14, absolute: 0.0, max_iterations: 500 };
+        let stop = Stop { tolerance: 1e-14, floor: 0.0, max_iterations: 500 };
         let mut residual = vec![DVec3::ZERO; n];
         let report = solve(&mut apply, &p_inv, &constraints, &b, &mut dv, stop, &mut residual);
         assert!(report.relative_residual <= 1e-14, "{report:?}");

@@ -105,8 +105,9 @@ pub struct LinearStep {
     pub preconditioner: Vec<glam::DMat3>,
     /// Anchors, drags and contacts.
     pub constraints: Vec<Constraint>,
-    /// The PCG's [`Stop::absolute`]: `Σ m̃ (1 mm/s)²`, the error energy of a velocity error of 1 mm/s
-    /// everywhere, so that a cloth at rest is not solved to ever smaller absolute errors.
+    /// The PCG's [`Stop::floor`]: `Σ m̃ (0.1 m/s)²`, so that near rest the velocity error is bounded
+    /// by the tolerance times 0.1 m/s (a typical speed of moving cloth) rather than chased to ever
+    /// smaller absolute values.
     pub error_floor: f64,
 }
 
@@ -116,8 +117,8 @@ const STRAIN_JUMP: f64 = 0.05;
 /// How many times a step may be halved.
 const MAX_HALVINGS: u32 = 4;
 
-/// A velocity error the PCG need not resolve, m/s (see [`LinearStep::error_floor`]).
-const VELOCITY_FLOOR: f64 = 1e-3;
+/// The reference speed of [`LinearStep::error_floor`], m/s.
+const VELOCITY_FLOOR: f64 = 0.1;
 
 /// Default contact margin, m.
 const DEFAULT_MARGIN: f64 = 0.005;
@@ -290,7 +291,9 @@ impl Cloth {
         let second = self.advance(0.5 * h, halvings + 1);
         PcgReport {
             iterations: report.iterations + first.iterations + second.iterations,
+            residual: first.residual.max(second.residual),
             relative_residual: first.relative_residual.max(second.relative_residual),
+            converged: first.converged && second.converged,
         }
     }
 
@@ -305,7 +308,7 @@ impl Cloth {
             &step.constraints,
             &step.rhs,
             &mut self.dv,
-            Stop { tolerance: self.tolerance, absolute: step.error_floor, max_iterations: self.iterations },
+            Stop { tolerance: self.tolerance, floor: step.error_floor, max_iterations: self.iterations },
             &mut residual,
         );
         self.contacts.update(self.contact, &residual, h);
@@ -355,8 +358,10 @@ impl Solver for Cloth {
             wall_seconds: start.elapsed().as_secs_f64(),
             sim_time: self.time,
             energy,
-            residual: report.relative_residual,
+            residual: report.residual,
             iterations: report.iterations,
+            relative_residual: report.relative_residual,
+            converged: report.converged,
         })
     }
 
