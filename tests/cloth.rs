@@ -425,3 +425,40 @@ fn a_triangle_mesh_collider_drapes_like_the_analytic_sphere() {
     std::fs::remove_dir_all(&dir).ok();
     assert!((analytic - meshed).length() < 0.01, "{analytic} vs {meshed}");
 }
+
+/// A position drag on a cloth particle brings it to the target at the end of the next step and holds
+/// it there while the sheet hangs from it; removing the drag lets it go.
+#[test]
+fn a_drag_moves_a_cloth_particle_to_its_target_and_lets_go_when_removed() {
+    use shellwarp::solver::{Drag, DragKind};
+    let setup = load("hanging-sheet", &[]);
+    let mut cloth = Cloth::new(&setup, Variant::Triangles).unwrap();
+    let vertex = 12 * 25 + 24; // the middle of the bottom edge
+    let target = setup.mesh.positions()[vertex] + DVec3::new(0.0, 0.2, 0.3);
+    let id = cloth.drags_mut().add(Drag { vertex, kind: DragKind::Position(target) }).unwrap();
+    for _ in 0..60 {
+        cloth.step().unwrap();
+        assert!((cloth.positions()[vertex] - target).length() < 1e-9, "the dragged particle is at its target");
+    }
+    let neighbour = 12 * 25 + 23;
+    assert!(cloth.positions()[neighbour].z > 0.2, "the cloth follows the drag");
+    cloth.drags_mut().remove(id).unwrap();
+    for _ in 0..30 {
+        cloth.step().unwrap();
+    }
+    assert!(cloth.positions()[vertex].y < target.y - 0.1, "released, it falls back");
+    assert!(
+        cloth.drags_mut().add(Drag { vertex, kind: DragKind::Orientation(DVec3::X) }).is_err(),
+        "no orientation drags on cloth"
+    );
+}
+
+/// `cloth-quad` needs a regular grid; on another mesh it says so.
+#[test]
+fn the_quad_original_refuses_a_mesh_that_is_not_a_grid() {
+    let setup = load("drape", &["solver.method=cloth-quad"]);
+    match shellwarp::solver::build(&setup) {
+        Err(e) => assert!(e.to_string().contains("needs a regular `grid` mesh"), "{e}"),
+        Ok(_) => panic!("cloth-quad ran on a Delaunay mesh"),
+    }
+}

@@ -65,6 +65,40 @@ fn every_validation_check_names_its_key() {
         ("colliders=[{ plane = { point = [0, inf, 0], normal = [0, 1, 0] } }]".into(), "colliders[0].point", "finite"),
         ("colliders=[{ plane = { point = [0, 0, 0], normal = [0, nan, 0] } }]".into(), "colliders[0].normal", "finite"),
         ("colliders=[{ plane = { point = [0, 0, 0], normal = [0, 0, 0] } }]".into(), "colliders[0].normal", "zero"),
+        (
+            "colliders=[{ sphere = { center = [0, 0, 0], radius = 1, motion = { velocity = [nan, 0, 0] } } }]".into(),
+            "colliders[0].motion.velocity",
+            "finite",
+        ),
+        (
+            "colliders=[{ sphere = { center = [0, 0, 0], radius = 1, motion = { amplitude = [0, inf, 0] } } }]".into(),
+            "colliders[0].motion.amplitude",
+            "finite",
+        ),
+        (
+            "colliders=[{ plane = { point = [0, 0, 0], normal = [0, 1, 0], motion = { frequency = -1 } } }]".into(),
+            "colliders[0].motion.frequency",
+            "must not be negative",
+        ),
+        (
+            "colliders=[{ sphere = { center = [0, 0, 0], radius = 1, motion = { spin = [0, nan, 0] } } }]".into(),
+            "colliders[0].motion.spin",
+            "finite",
+        ),
+        ("colliders=[{ mesh = { path = \"\" } }]".into(), "colliders[0].path", "is empty"),
+        ("colliders=[{ mesh = { path = \"b.obj\", scale = 0 } }]".into(), "colliders[0].scale", "must be positive"),
+        (
+            "colliders=[{ mesh = { path = \"b.obj\", translate = [0, nan, 0] } }]".into(),
+            "colliders[0].translate",
+            "finite",
+        ),
+        ("material.k_s=-1".into(), "material.k_s", "must not be negative"),
+        ("material.k_b=nan".into(), "material.k_b", "finite"),
+        ("material.c_b=-2".into(), "material.c_b", "must not be negative"),
+        ("material.k_d=inf".into(), "material.k_d", "finite"),
+        ("material.mu_s=-0.1".into(), "material.mu_s", "must not be negative"),
+        ("material.mu_k=nan".into(), "material.mu_k", "finite"),
+        ("solver.margin=0".into(), "solver.margin", "must be positive"),
         ("solver.step=-0.1".into(), "solver.step", "must be positive"),
         ("solver.modes=0".into(), "solver.modes", "at least 1"),
         ("solver.rayleigh_alpha=-1".into(), "solver.rayleigh_alpha", "must not be negative"),
@@ -157,4 +191,35 @@ fn placement_overflow_is_reported_as_such() {
         e,
         "assets/scenes/cantilever.toml: mesh: vertex coordinates reach 5.000e299: too large, lengths and areas overflow"
     );
+}
+
+/// A mesh collider is read when the scene is loaded: a missing file or an open mesh is an error that
+/// names the collider, and a closed mesh relative to the scene file loads.
+#[test]
+fn mesh_colliders_must_exist_and_be_closed() {
+    let dir = scratch("collider");
+    // A tetrahedron (closed, outward) and a single triangle (open).
+    std::fs::write(dir.join("tet.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n")
+        .unwrap();
+    std::fs::write(dir.join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let scene = |collider: &str| {
+        let path = dir.join("scene.toml");
+        let text = format!(
+            "name = \"c\"\n[mesh.grid]\nsize = [1.0, 1.0]\nsegments = [2, 2]\n[[colliders]]\nmesh = {{ path = \"{collider}\" }}\n[solver]\nmethod = \"cloth\"\n"
+        );
+        std::fs::write(&path, text).unwrap();
+        scene::load(&path.to_string_lossy(), &[])
+    };
+    let setup = scene("tet.obj").expect("a closed mesh collider loads");
+    assert_eq!(setup.bodies.len(), 1);
+    for (file, want) in [("missing.obj", "not found"), ("tri.obj", "must be closed")] {
+        match scene(file) {
+            Err(SceneError::Invalid { key, reason, .. }) => {
+                assert_eq!(key, "colliders[0]");
+                assert!(reason.contains(want), "{file}: {reason}");
+            }
+            other => panic!("{file}: {other:?}"),
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
 }
