@@ -5,6 +5,7 @@
 //! The [`app`] ties solver and renderer together; nothing below it knows about it.
 
 pub mod app;
+pub mod collision;
 pub mod energy;
 pub mod linalg;
 pub mod mesh;

@@ -8,6 +8,9 @@ use clap::Parser;
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
+    if let Some(code) = cli::rerun_quietly(&args) {
+        return code;
+    }
     match cli::run(args) {
         Ok(code) => code,
         Err(e) => {

@@ -38,6 +38,57 @@ fn sim_json_reports_steps_timing_energy_and_bbox() {
 }
 
 #[test]
+fn sim_json_reports_newton_convergence_of_ds_static() {
+    let (code, out, err) =
+        shellwarp(&["sim", "--scene", "cantilever", "--method", "ds-static", "--steps", "2", "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).expect("one JSON object");
+    assert_eq!((v["method"].as_str(), v["steps"].as_u64()), (Some("ds-static"), Some(2)));
+    assert_eq!(v["converged"], true, "{v}");
+    assert_eq!(v["unconverged_steps"], 0);
+    // The scene's tolerance is 1e-8 relative; the first step from rest takes a few Newton iterations,
+    // the second starts at the equilibrium and takes none.
+    let relative = v["final_relative_residual"].as_f64().unwrap();
+    assert!(relative > 0.0 && relative <= 1e-8, "{relative}");
+    assert!(v["final_residual"].as_f64().unwrap() > 0.0);
+    assert!(v["total_iterations"].as_u64().unwrap() >= 3, "{v}");
+    let t = &v["step_seconds"];
+    let (min, mean, max) = (t["min"].as_f64().unwrap(), t["mean"].as_f64().unwrap(), t["max"].as_f64().unwrap());
+    assert!(0.0 < min && min <= mean && mean <= max, "{t}");
+    // It sags: the tip is below the clamp.
+    assert!(v["bbox_min"][1].as_f64().unwrap() < -0.1, "{v}");
+}
+
+#[test]
+fn sim_reports_a_diverging_ds_run_with_exit_code_1() {
+    let (code, out, err) =
+        shellwarp(&["sim", "--scene", "cantilever", "--method", "ds", "--set", "solver.substep=1e-3", "--json"]);
+    assert_eq!(code, 1, "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("error: simulation diverged at step 1") && err.contains("stable limit"), "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).expect("one JSON object");
+    let reason = v["diverged"].as_str().expect("diverged is the reason");
+    assert!(reason.contains("diverged") && reason.contains("substep"), "{reason}");
+    assert_eq!(v["steps"], 0);
+    assert_eq!(v["converged"], false);
+    // No step completed: the timing is zeros (not −0.0) and the box is the last finite state, the rest shape.
+    fn negative_zero(v: &serde_json::Value) -> bool {
+        match v {
+            serde_json::Value::Number(n) => n.as_f64().is_some_and(|x| x == 0.0 && x.is_sign_negative()),
+            serde_json::Value::Array(a) => a.iter().any(negative_zero),
+            serde_json::Value::Object(o) => o.values().any(negative_zero),
+            _ => false,
+        }
+    }
+    assert!(!negative_zero(&v), "{out}");
+    assert_eq!(v["step_seconds"]["mean"].as_f64(), Some(0.0));
+    assert_eq!(v["bbox_min"][0].as_f64(), Some(-0.5));
+    assert_eq!(v["bbox_max"][0].as_f64(), Some(0.5));
+    let notes = v["notes"].as_array().unwrap();
+    assert!(notes.iter().any(|n| n.as_str().unwrap_or("").contains("ABOVE the estimated stable limit")), "{notes:?}");
+}
+
+#[test]
 fn sim_writes_the_final_mesh_as_obj() {
     let dir = std::env::temp_dir().join(format!("shellwarp-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

@@ -1,13 +1,19 @@
 //! The egui panel, driven with egui_kittest: typed parameter values reach the solver through the
-//! same command channel the viewer uses, and invalid values are refused with a message.
+//! same command channel the viewer uses (a new mode count is computed in the background, reported,
+//! then used), invalid values are refused with a message, and every control explains itself on hover.
 
 use std::time::{Duration, Instant};
 
 use egui::accesskit::Role;
 use egui_kittest::Harness;
-use egui_kittest::kittest::Queryable;
+use egui_kittest::kittest::{NodeT, Queryable};
+use glam::DVec3;
 use shellwarp::app::panel::{self, PanelState, UiAction};
-use shellwarp::app::sim_thread::{Pacing, SimHandle, Snapshot};
+use shellwarp::app::sim_thread::{Command, Pacing, SimHandle, SimStatus, Snapshot};
+use shellwarp::solver::{Drag, DragId, DragKind, Progress};
+
+/// The viewer's default panel width, points.
+const PANEL_WIDTH: f32 = 330.0;
 
 struct Ui {
     panel: PanelState,
@@ -24,7 +30,7 @@ fn harness(scene: &str) -> (Harness<'static, Ui>, SimHandle) {
         snapshot: sim.latest().clone(),
         actions: Vec::new(),
     };
-    let h = Harness::builder().with_size(egui::vec2(420.0, 900.0)).build_ui_state(
+    let h = Harness::builder().with_size(egui::vec2(PANEL_WIDTH, 1000.0)).build_ui_state(
         |ui, s: &mut Ui| {
             let a = panel::show(ui, &mut s.panel, &s.snapshot);
             s.actions.extend(a);
@@ -72,18 +78,63 @@ fn value(s: &Snapshot, name: &str) -> Option<f64> {
     s.params.iter().find(|p| p.spec.name == name).map(|p| p.value)
 }
 
+fn active_modes(s: &Snapshot) -> Option<f64> {
+    s.info.iter().find(|(k, _)| *k == "active modes").map(|(_, v)| *v)
+}
+
 #[test]
 fn bending_stiffness_and_mode_count_typed_in_the_panel_reach_the_solver() {
     let (mut h, mut sim) = harness("cantilever");
     h.run();
     assert_eq!(h.state().snapshot.method, "mwts");
+    assert_eq!(active_modes(&h.state().snapshot), Some(8.0));
     type_into(&mut h, "k_B (bending)", "0.25");
     assert!(h.state().actions.contains(&UiAction::SetParam("k_bend".into(), 0.25)), "{:?}", h.state().actions);
     assert!(deliver(&mut h, &mut sim, |s| value(s, "k_bend") == Some(0.25)), "k_B never reached the solver");
     type_into(&mut h, "modes", "12");
     assert!(h.state().actions.contains(&UiAction::SetParam("modes".into(), 12.0)), "{:?}", h.state().actions);
-    // The modes are recomputed in the background; the solver reports the new count at once.
-    assert!(deliver(&mut h, &mut sim, |s| value(s, "modes") == Some(12.0)), "the mode count never reached the solver");
+    // The new basis is computed in the background: reported as progress while the old one stays in use...
+    let computing = |s: &Snapshot| {
+        value(s, "modes") == Some(12.0)
+            && s.progress.as_ref().is_some_and(|p| p.label.contains("12 modes"))
+            && active_modes(s) == Some(8.0)
+    };
+    assert!(deliver(&mut h, &mut sim, computing), "no progress reported for the new mode count");
+    h.get_by_label_contains("active modes 8");
+    // ...then it becomes the active one (the simulation is paused: background work still completes).
+    let done = |s: &Snapshot| active_modes(s) == Some(12.0) && s.progress.is_none();
+    assert!(deliver(&mut h, &mut sim, done), "the 12-mode basis never became active");
+    h.get_by_label_contains("active modes 12");
+    // And the simulation steps with it.
+    sim.send(Command::StepOnce);
+    assert!(deliver(&mut h, &mut sim, |s| s.steps == 1 && active_modes(s) == Some(12.0)), "no step on the new basis");
+}
+
+/// Every control of the panel, in every state it can show, describes itself on hover (egui exposes
+/// hover text as the accessible description).
+#[test]
+fn every_control_has_hover_text() {
+    let (mut h, _sim) = harness("cantilever");
+    let state = h.state_mut();
+    state.snapshot.status = SimStatus::Diverged("test".into());
+    state.snapshot.progress = Some(Progress { label: "computing".into(), fraction: 0.5 });
+    state.snapshot.drags = vec![(DragId(1), Drag { vertex: 3, kind: DragKind::Position(DVec3::ZERO) })];
+    state.panel.loading = Some("loading".into());
+    state.panel.message = Some("message".into());
+    h.run_steps(4); // the spinner keeps repainting
+    let roles = [Role::Button, Role::ComboBox, Role::RadioButton, Role::CheckBox, Role::TextInput];
+    let mut seen = 0;
+    for role in roles.into_iter().chain([Role::ProgressIndicator]) {
+        for node in h.query_all_by_role(role) {
+            let ak = node.accesskit_node();
+            let name = ak.label().or(ak.value()).unwrap_or_default();
+            assert!(ak.description().is_some_and(|d| !d.is_empty()), "{role:?} `{name}` has no hover text");
+            seen += 1;
+        }
+    }
+    // Play, Step, Reset, Screenshot, Reset after divergence, Dismiss, Remove all, Remove; two combos;
+    // five radios; a checkbox; ten parameter fields; a progress bar and a spinner.
+    assert!(seen >= 28, "only {seen} controls found");
 }
 
 #[test]
@@ -99,4 +150,17 @@ fn invalid_value_is_refused_with_a_message() {
     assert!(h.state().panel.error("modes").is_some_and(|e| e.contains("whole number")));
     type_into(&mut h, "k_B (bending)", "abc");
     assert!(h.state().panel.error("k_bend").is_some_and(|e| e.contains("not a number")));
+}
+
+#[test]
+fn parameter_fields_are_wide_enough_for_their_values() {
+    let (mut h, _sim) = harness("cantilever");
+    h.run();
+    let fields: Vec<_> = h.query_all_by_role(Role::TextInput).collect();
+    assert_eq!(fields.len(), 10);
+    for field in fields {
+        let ak = field.accesskit_node();
+        // "-9.81" or "1000" need about 40 points in the default font, plus the frame's margins.
+        assert!(field.rect().width() >= 70.0, "`{:?}` is {} points wide", ak.label(), field.rect().width());
+    }
 }

@@ -250,7 +250,15 @@ fn unorm_target_matches_srgb_target_and_errors_are_returned() {
         });
         srgb.render(&gpu, &frame, &texture.create_view(&Default::default()), (8, 8))
     });
-    assert!(matches!(err, Err(RenderError::Gpu { .. })), "{err:?}");
+    match err {
+        Err(RenderError::Gpu { message, .. }) => {
+            eprintln!("validation error: {message}");
+            // wgpu's report is several lines ("Caused by: ..."): it must come back as one, root cause kept.
+            assert!(!message.contains('\n') && !message.contains("Caused by"), "{message}");
+            assert!(message.contains("Bgra8Unorm") && message.contains("Rgba8UnormSrgb"), "{message}");
+        }
+        other => panic!("expected a GPU validation error, got {other:?}"),
+    }
     // The renderer still works afterwards.
     let again = render_to_image(&gpu, &mut srgb, &frame, WIDTH, HEIGHT).unwrap();
     assert!(compare_images(&a, &again).unwrap().mean_abs < 1e-3);

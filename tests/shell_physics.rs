@@ -1,66 +1,12 @@
-//! Physics validation of the discrete-shell solvers: Euler–Bernoulli cantilever, the large-deflection
-//! elastica, explicit vs implicit dynamics, and explicit instability.
+//! Static physics of the discrete shell (`ds-static`) on a clamped strip: the Euler–Bernoulli
+//! cantilever under a small load, and the large-deflection elastica under a tip point load (against
+//! Bisshopp & Drucker's published table) and under self-weight.
 
-use std::path::PathBuf;
+mod common;
 
+use common::Strip;
 use glam::DVec3;
-use shellwarp::scene::{self, Origin, Setup};
-use shellwarp::solver::{Solver, SolverError, build};
-
-/// A strip along x: `cells` cells of length `dx` (so `cells + 1` vertex rows), `across` cells across a
-/// width `width`, clamped by fixing the first two vertex rows. Beam length from the second row is
-/// `(cells − 1) dx`.
-struct Strip {
-    cells: usize,
-    across: usize,
-    dx: f64,
-    width: f64,
-}
-
-impl Strip {
-    fn setup(&self, method: &str, material: &str, extra: &str) -> Setup {
-        let total = self.cells as f64 * self.dx;
-        let clamp = -total / 2.0 + 1.5 * self.dx;
-        let text = format!(
-            r#"
-name = "test strip"
-[mesh.grid]
-size = [{total}, {width}]
-segments = [{cells}, {across}]
-[material]
-{material}
-[[anchors]]
-box = {{ min = [-10.0, -1.0, -1.0], max = [{clamp}, 1.0, 1.0] }}
-[solver]
-method = "{method}"
-{extra}
-"#,
-            width = self.width,
-            cells = self.cells,
-            across = self.across,
-        );
-        let origin = Origin { label: "test".into(), dir: PathBuf::from(".") };
-        let setup = Setup::new(scene::parse(&text, &origin, &[]).unwrap(), origin).unwrap();
-        assert_eq!(setup.anchors.len(), 2 * (self.across + 1), "exactly two rows clamped");
-        setup
-    }
-
-    fn length(&self) -> f64 {
-        (self.cells - 1) as f64 * self.dx
-    }
-
-    /// Mean (over the row) downward deflection and horizontal (x) shortening of vertex row `i`.
-    fn row_displacement(&self, rest: &[DVec3], x: &[DVec3], i: usize) -> (f64, f64) {
-        let n = self.across + 1;
-        let (mut dy, mut dxs) = (0.0, 0.0);
-        for j in 0..n {
-            let v = i * n + j;
-            dy += rest[v].y - x[v].y;
-            dxs += rest[v].x - x[v].x;
-        }
-        (dy / n as f64, dxs / n as f64)
-    }
-}
+use shellwarp::solver::{Solver, StepStats, build};
 
 /// Euler–Bernoulli cantilever under uniform load: `y(s)/y(L) = s²(6L² − 4Ls + s²)/(3L⁴)`.
 fn euler_bernoulli_shape(s: f64, l: f64) -> f64 {
@@ -71,18 +17,29 @@ const DENSITY: f64 = 0.5;
 const K_BEND: f64 = 1e-3;
 const STRIP: Strip = Strip { cells: 61, across: 2, dx: 1.0 / 60.0, width: 0.04 };
 
+/// Nearly inextensible: membrane stiffness 10⁶ × the bending stiffness.
+fn material(k_bend: f64) -> String {
+    format!("density = {DENSITY}\nk_area = 1000.0\nk_length = 1000.0\nk_bend = {k_bend}")
+}
+
+const NEWTON: &str = "iterations = 1000\ntolerance = 1e-10";
+
 fn static_strip(k_bend: f64) -> Box<dyn Solver> {
-    // Nearly inextensible: membrane stiffness 10⁶ × the bending stiffness.
-    let material = format!("density = {DENSITY}\nk_area = 1000.0\nk_length = 1000.0\nk_bend = {k_bend}");
-    build(&STRIP.setup("ds-static", &material, "iterations = 200\ntolerance = 1e-10")).unwrap()
+    build(&STRIP.setup("ds-static", &material(k_bend), NEWTON)).unwrap()
+}
+
+/// One `ds-static` step that must have converged (to the tolerance or the round-off floor).
+fn converged_step(s: &mut dyn Solver) -> StepStats {
+    let stats = s.step().unwrap();
+    assert!(stats.converged, "Newton did not converge: {stats:?}");
+    stats
 }
 
 /// Solve the static cantilever at gravity `g` (m/s², downward), ramping the load in `ramp` stages.
 fn equilibrium(s: &mut dyn Solver, g: f64, ramp: usize) -> Vec<DVec3> {
     for k in 1..=ramp {
         s.set_param("gravity_y", -g * k as f64 / ramp as f64).unwrap();
-        let stats = s.step().unwrap();
-        assert!(stats.iterations < 200, "Newton did not converge: {stats:?}");
+        converged_step(s);
     }
     s.positions().to_vec()
 }
@@ -131,19 +88,28 @@ fn cantilever_small_load_matches_euler_bernoulli() {
     assert!((ei2 / ei - 1.0).abs() < 1e-3);
 }
 
-/// Large-deflection cantilever under a uniformly distributed dead load (self-weight), nondimensional:
-/// `θ'' = −α (1 − σ) cos θ`, `θ(0) = 0`, `θ'(1) = 0` with `α = wL³/EI`, σ = s/L and θ the slope angle
-/// (positive downwards). Solved by shooting on `θ'(0)` (bisection) with RK4; returns the tip deflection
-/// `δ/L = ∫ sin θ dσ` and horizontal tip position `x/L = ∫ cos θ dσ`.
-///
-/// This is the classical elastica of a cantilever under self-weight (Rohde, Q. Appl. Math. 11, 1953;
-/// tabulated by Lee, Int. J. Non-Linear Mech. 37, 2002). The reference is computed here rather than
-/// copied from those tables, and its discretisation error is checked by halving the step.
-fn elastica(alpha: f64, steps: usize) -> (f64, f64) {
+/// How the elastica is loaded.
+#[derive(Clone, Copy, Debug)]
+enum Loading {
+    /// A vertical point load `P` at the free end, `α = PL²/EI`.
+    Tip,
+    /// A uniformly distributed dead load `w` (self-weight), `α = wL³/EI`.
+    SelfWeight,
+}
+
+/// The inextensible elastica of a cantilever, nondimensional: `θ'' = −α m(σ) cos θ`, `θ(0) = 0`,
+/// `θ'(1) = 0`, with σ = s/L, θ the slope angle (positive downwards) and `m = 1` (tip load) or `1 − σ`
+/// (self-weight). Solved by shooting on `θ'(0)` (bisection) with RK4 in `steps` steps; returns the tip
+/// deflection `δ/L = ∫ sin θ dσ` and the horizontal tip shortening `1 − x/L = 1 − ∫ cos θ dσ`.
+fn elastica(loading: Loading, alpha: f64, steps: usize) -> (f64, f64) {
     let integrate = |k0: f64| {
         let h = 1.0 / steps as f64;
+        let m = |s: f64| match loading {
+            Loading::Tip => 1.0,
+            Loading::SelfWeight => 1.0 - s,
+        };
         // State: θ, θ', x, y.
-        let f = |s: f64, u: [f64; 4]| [u[1], -alpha * (1.0 - s) * u[0].cos(), u[0].cos(), u[0].sin()];
+        let f = |s: f64, u: [f64; 4]| [u[1], -alpha * m(s) * u[0].cos(), u[0].cos(), u[0].sin()];
         let mut u = [0.0, k0, 0.0, 0.0];
         for i in 0..steps {
             let s = i as f64 * h;
@@ -159,132 +125,121 @@ fn elastica(alpha: f64, steps: usize) -> (f64, f64) {
         }
         u
     };
-    let (mut lo, mut hi) = (0.0, alpha / 2.0 * 1.001);
+    // θ'(0) is the clamp moment / EI, between 0 and the linear value α (tip) or α/2 (self-weight).
+    let (mut lo, mut hi) = (0.0, alpha * 1.001);
     assert!(integrate(lo)[1] < 0.0 && integrate(hi)[1] > 0.0, "bracket");
     for _ in 0..200 {
         let mid = 0.5 * (lo + hi);
         if integrate(mid)[1] > 0.0 { hi = mid } else { lo = mid }
     }
     let u = integrate(0.5 * (lo + hi));
-    (u[3], u[2])
+    (u[3], 1.0 - u[2])
 }
 
+/// Bisshopp & Drucker, "Large deflection of cantilever beams", Q. Appl. Math. 3(3):272–275 (1945):
+/// cantilever with a vertical tip load, `(PL²/EI, δ/L, (L − x)/L)` — tip deflection and horizontal tip
+/// shortening from their elliptic-integral solution, to the four digits widely reproduced.
+const BISSHOPP_DRUCKER: [(f64, f64, f64); 4] =
+    [(1.0, 0.3017, 0.0564), (2.0, 0.4935, 0.1606), (3.0, 0.6033, 0.2544), (5.0, 0.7138, 0.3876)];
+
 #[test]
-fn elastica_reference_converges_and_has_the_linear_limit() {
-    for alpha in [0.01, 3.0, 12.0] {
-        let (d1, x1) = elastica(alpha, 2000);
-        let (d2, x2) = elastica(alpha, 4000);
-        assert!((d1 - d2).abs() < 1e-10 && (x1 - x2).abs() < 1e-10, "α = {alpha}: {d1} vs {d2}");
+fn elastica_reference_reproduces_the_published_table_and_the_linear_limit() {
+    for (alpha, d_pub, s_pub) in BISSHOPP_DRUCKER {
+        let (d, s) = elastica(Loading::Tip, alpha, 2000);
+        eprintln!(
+            "tip-load elastica α = {alpha}: δ/L {d:.5} (published {d_pub}), shortening {s:.5} (published {s_pub})"
+        );
+        assert!((d - d_pub).abs() <= 6e-5 && (s - s_pub).abs() <= 6e-5, "α = {alpha}: {d}, {s}");
     }
-    // Small α: Euler–Bernoulli δ/L = α/8.
-    let (d, _) = elastica(0.01, 2000);
+    for loading in [Loading::Tip, Loading::SelfWeight] {
+        for alpha in [0.01, 3.0, 12.0] {
+            let (d1, s1) = elastica(loading, alpha, 2000);
+            let (d2, s2) = elastica(loading, alpha, 4000);
+            assert!((d1 - d2).abs() < 1e-10 && (s1 - s2).abs() < 1e-10, "{loading:?} α = {alpha}: {d1} vs {d2}");
+        }
+    }
+    // Small α: Euler–Bernoulli δ/L = α/3 (tip load) and α/8 (self-weight).
+    let (d, _) = elastica(Loading::Tip, 0.01, 2000);
+    assert!((d / (0.01 / 3.0) - 1.0).abs() < 1e-4, "{d}");
+    let (d, _) = elastica(Loading::SelfWeight, 0.01, 2000);
     assert!((d / (0.01 / 8.0) - 1.0).abs() < 1e-4, "{d}");
 }
 
+/// A `[[loads]]` table putting `total` newtons (downward, −y) on the tip row of `strip`, shared equally.
+fn tip_load(strip: &Strip, total: f64) -> String {
+    let x = strip.cells as f64 * strip.dx / 2.0 - 0.5 * strip.dx;
+    let each = total / (strip.across + 1) as f64;
+    format!(
+        "[[loads]]\nselect = {{ box = {{ min = [{x}, -1.0, -1.0], max = [10.0, 1.0, 1.0] }} }}\nforce = [0.0, {}, 0.0]\n",
+        -each
+    )
+}
+
+/// A `ds-static` strip with a downward tip load `p` (N) and no gravity, solved from rest.
+fn tip_loaded(p: f64) -> (Box<dyn Solver>, Vec<DVec3>, StepStats) {
+    let setup = STRIP.setup_with("ds-static", &material(K_BEND), &tip_load(&STRIP, p), NEWTON);
+    let mut s = build(&setup).unwrap();
+    s.set_param("gravity_y", 0.0).unwrap();
+    let rest = s.positions().to_vec();
+    let stats = converged_step(s.as_mut());
+    (s, rest, stats)
+}
+
 #[test]
-fn cantilever_large_load_matches_the_elastica() {
+fn cantilever_tip_load_matches_bisshopp_and_drucker() {
+    let l = STRIP.length();
+    // Calibrate EI from a small tip load: δ = PL³/(3EI).
+    let p0 = 1e-6;
+    let (s, rest, _) = tip_loaded(p0);
+    let (tip0, _) = STRIP.row_displacement(&rest, s.positions(), STRIP.cells);
+    assert!(tip0 > 0.0 && tip0 / l < 2e-2, "small load keeps the strip linear: δ/L = {}", tip0 / l);
+    let ei = p0 * l.powi(3) / (3.0 * tip0);
+    for (alpha, d_pub, s_pub) in BISSHOPP_DRUCKER {
+        let (s, rest, stats) = tip_loaded(alpha * ei / (l * l));
+        let (dy, dx) = STRIP.row_displacement(&rest, s.positions(), STRIP.cells);
+        let (d, short) = (dy / l, dx / l);
+        let (ed, es) = ((d - d_pub).abs() / d_pub, (short - s_pub).abs() / s_pub);
+        eprintln!(
+            "tip load PL²/EI = {alpha}: δ/L {d:.4} vs {d_pub} ({:.2}%), (L − x)/L {short:.4} vs {s_pub} ({:.2}%), \
+             linear theory δ/L = {:.3}; {} Newton iterations",
+            100.0 * ed,
+            100.0 * es,
+            alpha / 3.0,
+            stats.iterations
+        );
+        assert!(ed < 0.03 && es < 0.03, "PL²/EI = {alpha}: deflection error {ed}, shortening error {es}");
+    }
+}
+
+/// Self-weight: the reference is the shooting solution above (validated against the published
+/// tip-load table and the linear limit), not a published table.
+#[test]
+fn cantilever_under_large_self_weight_matches_the_elastica() {
     let l = STRIP.length();
     let (_, ei, _) = small_load(K_BEND, 5e-4);
     let mut s = static_strip(K_BEND);
     let rest = s.positions().to_vec();
     let mut g_prev = 0.0;
     for alpha in [2.0, 5.0, 10.0, 20.0] {
-        let (d_ref, x_ref) = elastica(alpha, 4000);
+        let (d_ref, s_ref) = elastica(Loading::SelfWeight, alpha, 4000);
         // Load per unit length w = ρ b g with α = wL³/EI.
         let g = alpha * ei / (DENSITY * STRIP.width * l.powi(3));
         // Continue from the previous equilibrium, ramping the extra load in a few stages.
         for k in 1..=4 {
             s.set_param("gravity_y", -(g_prev + (g - g_prev) * k as f64 / 4.0)).unwrap();
-            let st = s.step().unwrap();
-            assert!(st.iterations < 200, "{st:?}");
+            converged_step(s.as_mut());
         }
         g_prev = g;
         let (dy, dx) = STRIP.row_displacement(&rest, s.positions(), STRIP.cells);
-        // The clamp row is at arc length 0: x/L of the tip = 1 − shortening/L.
-        let (d_sim, x_sim) = (dy / l, 1.0 - dx / l);
-        let (ed, ex) = ((d_sim - d_ref).abs() / d_ref, (x_sim - x_ref).abs() / x_ref);
+        let (d, short) = (dy / l, dx / l);
+        let (ed, es) = ((d - d_ref).abs() / d_ref, (short - s_ref).abs() / s_ref);
         eprintln!(
-            "elastica α = {alpha}: δ/L sim {d_sim:.4} ref {d_ref:.4} (err {:.2}%), x/L sim {x_sim:.4} ref {x_ref:.4} (err {:.2}%), linear theory δ/L = {:.3}",
+            "self-weight wL³/EI = {alpha}: δ/L {d:.4} vs {d_ref:.4} ({:.2}%), (L − x)/L {short:.4} vs {s_ref:.4} ({:.2}%), \
+             linear theory δ/L = {:.3}",
             100.0 * ed,
-            100.0 * ex,
+            100.0 * es,
             alpha / 8.0
         );
-        assert!(ed < 0.03 && ex < 0.03, "α = {alpha}: deflection error {ed}, horizontal error {ex}");
+        assert!(ed < 0.03 && es < 0.03, "α = {alpha}: deflection error {ed}, shortening error {es}");
     }
-}
-
-/// A short, coarse strip for dynamics (membrane stiffness kept moderate so 1/30000 s is stable).
-const SHORT: Strip = Strip { cells: 13, across: 2, dx: 0.025, width: 0.04 };
-const DYN_MATERIAL: &str = "density = 1.0\nk_area = 100.0\nk_length = 100.0\nk_bend = 2e-4";
-
-fn tip_trajectory(s: &mut dyn Solver, until: f64) -> Vec<(f64, f64)> {
-    let rest = s.positions().to_vec();
-    let mut out = Vec::new();
-    let mut t = 0.0;
-    while t < until - 1e-9 {
-        t = s.step().unwrap().sim_time;
-        out.push((t, SHORT.row_displacement(&rest, s.positions(), SHORT.cells).0));
-    }
-    out
-}
-
-#[test]
-fn explicit_and_implicit_agree_on_a_short_dynamic_run() {
-    let until = 0.2;
-    let mut ds = build(&SHORT.setup("ds", DYN_MATERIAL, "")).unwrap();
-    let reference = tip_trajectory(ds.as_mut(), until);
-    let (t_end, tip_end) = *reference.last().unwrap();
-    let peak = reference.iter().map(|p| p.1.abs()).fold(0.0, f64::max);
-    let mut errors = Vec::new();
-    for h in [2e-3, 1e-3, 5e-4] {
-        let mut im =
-            build(&SHORT.setup("ds-implicit", DYN_MATERIAL, &format!("step = {h}\ntolerance = 1e-10"))).unwrap();
-        let traj = tip_trajectory(im.as_mut(), until);
-        let (t, tip) = *traj.last().unwrap();
-        assert!((t - t_end).abs() < 1e-9);
-        errors.push((tip - tip_end).abs() / peak);
-    }
-    eprintln!(
-        "ds tip at t = {t_end:.3}: {tip_end:.5} m (peak {peak:.5}); ds-implicit relative errors for h = 2e-3, 1e-3, 5e-4: {errors:?}"
-    );
-    assert!(peak > 1e-3, "the strip moves visibly");
-    // Backward Euler is first order: halving h roughly halves the error, and at 5e-4 s it is small.
-    assert!(errors[1] < 0.7 * errors[0] && errors[2] < 0.7 * errors[1], "{errors:?}");
-    assert!(errors[2] < 0.03, "{errors:?}");
-}
-
-#[test]
-fn explicit_blows_up_above_its_stable_step_and_reports_divergence() {
-    let mut ds = build(&SHORT.setup("ds", DYN_MATERIAL, "")).unwrap();
-    ds.set_param("substep", 1.0 / 300.0).unwrap();
-    let mut outcome = None;
-    for _ in 0..60 {
-        if let Err(e) = ds.step() {
-            outcome = Some(e);
-            break;
-        }
-    }
-    assert!(matches!(outcome, Some(SolverError::Diverged { .. })), "{outcome:?}");
-    // After reset and a stable step it runs again.
-    ds.reset();
-    ds.set_param("substep", 1.0 / 30000.0).unwrap();
-    assert!(ds.step().is_ok());
-}
-
-#[test]
-fn implicit_is_stable_at_a_frame_step_and_settles_to_the_static_equilibrium() {
-    let mut im = build(&SHORT.setup("ds-implicit", DYN_MATERIAL, "rayleigh_alpha = 8.0")).unwrap();
-    let rest = im.positions().to_vec();
-    for _ in 0..150 {
-        let st = im.step().unwrap();
-        assert!(st.energy.is_finite() && st.iterations < 50, "{st:?}");
-    }
-    let mut st = build(&SHORT.setup("ds-static", DYN_MATERIAL, "")).unwrap();
-    let first = st.step().unwrap();
-    let second = st.step().unwrap();
-    eprintln!("ds-static from rest: {first:?}; continued: {second:?}");
-    let a = SHORT.row_displacement(&rest, im.positions(), SHORT.cells).0;
-    let b = SHORT.row_displacement(&rest, st.positions(), SHORT.cells).0;
-    eprintln!("after 5 s of damped ds-implicit at 1/30 s the tip sag is {a:.5} m; ds-static gives {b:.5} m");
-    assert!((a - b).abs() < 1e-3 * b.abs(), "{a} vs {b}");
 }

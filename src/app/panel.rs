@@ -6,10 +6,10 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use egui::{Color32, RichText};
-use egui_plot::{Legend, Line, Plot};
+use egui_plot::{Line, Plot};
 
 use super::sim_thread::{Pacing, SimStatus, Snapshot};
-use crate::solver::{DragId, DragKind, ParamSpec};
+use crate::solver::{DragId, DragKind, ParamSpec, registry};
 
 /// What the user asked for this frame.
 #[derive(Debug, Clone, PartialEq)]
@@ -26,6 +26,8 @@ pub enum UiAction {
     SetPacing(Pacing),
     /// Remove one drag constraint.
     RemoveDrag(DragId),
+    /// Remove every drag constraint.
+    ClearDrags,
     /// Load another scene (by built-in name).
     SwitchScene(String),
     /// Run the current scene with another method.
@@ -68,6 +70,10 @@ pub struct PanelState {
     last_step: u64,
     /// Frames per second of the window, for display.
     pub fps: f64,
+    /// What is being loaded in the background (scene or method switch), shown with a spinner.
+    pub loading: Option<String>,
+    /// A message for the user (a failed switch or screenshot), shown until dismissed.
+    pub message: Option<String>,
 }
 
 const HISTORY: usize = 600;
@@ -87,6 +93,8 @@ impl PanelState {
             history: VecDeque::new(),
             last_step: 0,
             fps: 0.0,
+            loading: None,
+            message: None,
         }
     }
 
@@ -115,11 +123,15 @@ impl PanelState {
     }
 }
 
+/// Red, for errors.
+const ERROR: Color32 = Color32::from_rgb(220, 60, 40);
+
 /// Draw the panel for `snap`; returns what the user asked for.
 pub fn show(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot) -> Vec<UiAction> {
     let mut actions = Vec::new();
     state.record(snap);
     egui::ScrollArea::vertical().show(ui, |ui| {
+        notices(ui, state);
         pickers(ui, state, snap, &mut actions);
         ui.separator();
         transport(ui, state, snap, &mut actions);
@@ -133,19 +145,37 @@ pub fn show(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot) -> Vec<U
     actions
 }
 
+/// The background load in progress and the latest message.
+fn notices(ui: &mut egui::Ui, state: &mut PanelState) {
+    if let Some(what) = &state.loading {
+        ui.horizontal(|ui| {
+            ui.spinner().on_hover_text("The scene is built on a background thread; the view keeps running");
+            ui.label(what);
+        });
+    }
+    if let Some(m) = &state.message {
+        ui.colored_label(ERROR, m);
+        if ui.small_button("Dismiss").on_hover_text("Hide this message").clicked() {
+            state.message = None;
+        }
+    }
+}
+
 fn pickers(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot, actions: &mut Vec<UiAction>) {
     egui::Grid::new("pickers").num_columns(2).show(ui, |ui| {
-        let label = ui.label("Scene").on_hover_text("Built-in scene to simulate");
+        let label = ui.label("Scene").on_hover_text("Scene to simulate");
         let mut scene = state.scene.clone();
         egui::ComboBox::from_id_salt("scene")
             .selected_text(&scene)
             .show_ui(ui, |ui| {
                 for s in &state.scenes {
-                    ui.selectable_value(&mut scene, s.clone(), s);
+                    ui.selectable_value(&mut scene, s.clone(), s)
+                        .on_hover_text(format!("Load the built-in scene `{s}`"));
                 }
             })
             .response
-            .labelled_by(label.id);
+            .labelled_by(label.id)
+            .on_hover_text("Switch to a built-in scene (loaded in the background)");
         if scene != state.scene {
             state.scene = scene.clone();
             actions.push(UiAction::SwitchScene(scene));
@@ -157,11 +187,13 @@ fn pickers(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot, actions: 
             .selected_text(&method)
             .show_ui(ui, |ui| {
                 for m in &state.methods {
-                    ui.selectable_value(&mut method, m.clone(), m);
+                    let summary = registry::find(m).map_or("", |x| x.summary);
+                    ui.selectable_value(&mut method, m.clone(), m).on_hover_text(summary);
                 }
             })
             .response
-            .labelled_by(label.id);
+            .labelled_by(label.id)
+            .on_hover_text("Run this scene with another method (built in the background)");
         if method != snap.method {
             actions.push(UiAction::SwitchMethod(method));
         }
@@ -176,13 +208,13 @@ fn transport(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot, actions
         if play.clicked() {
             actions.push(UiAction::SetPaused(!paused));
         }
-        if ui.button("Step").on_hover_text("Advance one step (S)").clicked() {
+        if ui.button("Step").on_hover_text("Advance one step and pause (S)").clicked() {
             actions.push(UiAction::StepOnce);
         }
         if ui.button("Reset").on_hover_text("Back to the rest state (R)").clicked() {
             actions.push(UiAction::Reset);
         }
-        if ui.button("Screenshot").on_hover_text("Save a screenshot (F12)").clicked() {
+        if ui.button("Screenshot").on_hover_text("Save a PNG of the window (F12)").clicked() {
             actions.push(UiAction::Screenshot);
         }
     });
@@ -192,29 +224,33 @@ fn transport(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot, actions
         ui.radio_value(&mut state.drag_mode, DragMode::Position, "position")
             .on_hover_text("The picked vertex follows the pointer in the view plane");
         ui.radio_value(&mut state.drag_mode, DragMode::Orientation, "rotation")
-            .on_hover_text("The picked vertex's rotation follows the pointer (rotate gizmo)");
+            .on_hover_text("The picked vertex turns with the pointer about the screen axes (rotate gizmo)");
     });
     ui.horizontal(|ui| {
         let before = state.speed;
         ui.label("Pace").on_hover_text("Simulated time per wall-clock time");
-        ui.radio_value(&mut state.speed, Some(1.0), "real time");
-        ui.radio_value(&mut state.speed, Some(0.25), "slow x0.25");
-        ui.radio_value(&mut state.speed, None, "fast").on_hover_text("As fast as possible");
+        ui.radio_value(&mut state.speed, Some(1.0), "real time")
+            .on_hover_text("One simulated second per wall-clock second");
+        ui.radio_value(&mut state.speed, Some(0.25), "slow x0.25")
+            .on_hover_text("Slow motion: a quarter simulated second per wall-clock second");
+        ui.radio_value(&mut state.speed, None, "fast").on_hover_text("Step as fast as possible");
         if state.speed != before {
             actions.push(UiAction::SetPacing(state.speed.map_or(Pacing::AsFastAsPossible, Pacing::Scaled)));
         }
     });
     if let SimStatus::Diverged(reason) = &snap.status {
-        ui.colored_label(Color32::from_rgb(220, 60, 40), format!("Diverged: {reason}"));
-        if ui.button("Reset after divergence").clicked() {
+        ui.colored_label(ERROR, format!("Diverged: {reason}"));
+        let reset = ui.button("Reset after divergence");
+        if reset.on_hover_text("Back to the rest state and run again (R)").clicked() {
             actions.push(UiAction::Reset);
         }
     }
     if let Some(p) = &snap.progress {
-        ui.add(egui::ProgressBar::new(p.fraction).text(&p.label).show_percentage());
+        ui.add(egui::ProgressBar::new(p.fraction).text(&p.label).show_percentage())
+            .on_hover_text("Background work; the simulation keeps running on the previous state meanwhile");
     }
     if let Some(e) = &snap.last_error {
-        ui.colored_label(Color32::from_rgb(220, 60, 40), e);
+        ui.colored_label(ERROR, e);
     }
 }
 
@@ -225,15 +261,18 @@ fn parameters(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot, action
             let spec = p.spec;
             let label = ui.label(spec.label).on_hover_text(format!("{} (`{}`)", spec.help, spec.name));
             let text = state.edits.entry(spec.name).or_insert_with(|| format_value(p.value));
+            let field = egui::TextEdit::singleline(text).min_size(egui::vec2(FIELD_WIDTH, 0.0)).id_salt(spec.name);
             let edit = ui
-                .add(egui::TextEdit::singleline(text).desired_width(90.0).id_salt(spec.name))
+                .add(field.desired_width(FIELD_WIDTH))
                 .labelled_by(label.id)
                 .on_hover_text(format!("{} - range [{}, {}] {}", spec.help, spec.min, spec.max, spec.unit));
             if edit.lost_focus() {
+                // The field shows a rounded value: leaving it untouched must not "set" the rounding.
+                let untouched = text.trim() == format_value(p.value);
                 match PanelState::accept(&spec, text) {
                     Ok(v) => {
                         state.errors.remove(spec.name);
-                        if v != p.value {
+                        if !untouched && v != p.value {
                             actions.push(UiAction::SetParam(spec.name.to_string(), v));
                         }
                     }
@@ -248,15 +287,31 @@ fn parameters(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot, action
             ui.end_row();
             if let Some(e) = state.errors.get(spec.name) {
                 ui.label("");
-                ui.colored_label(Color32::from_rgb(220, 60, 40), RichText::new(e).small());
+                ui.colored_label(ERROR, RichText::new(e).small());
                 ui.end_row();
             }
         }
     });
 }
 
+/// Width of a parameter's text field, in points: room for values like `-9.81` or `1e-9`.
+const FIELD_WIDTH: f32 = 80.0;
+
+/// A value with at most six significant digits, so it fits its field.
 fn format_value(v: f64) -> String {
-    if v != 0.0 && (v.abs() < 1e-3 || v.abs() >= 1e5) { format!("{v:e}") } else { format!("{v}") }
+    fn trim(digits: &str) -> &str {
+        if digits.contains('.') { digits.trim_end_matches('0').trim_end_matches('.') } else { digits }
+    }
+    if v != 0.0 && (v.abs() < 1e-3 || v.abs() >= 1e5) {
+        let text = format!("{v:.5e}");
+        match text.split_once('e') {
+            Some((mantissa, exponent)) => format!("{}e{exponent}", trim(mantissa)),
+            None => text,
+        }
+    } else {
+        let decimals = (5 - v.abs().log10().floor() as i32).clamp(0, 8) as usize;
+        trim(&format!("{v:.decimals$}")).to_string()
+    }
 }
 
 fn statistics(ui: &mut egui::Ui, state: &PanelState, snap: &Snapshot) {
@@ -264,7 +319,8 @@ fn statistics(ui: &mut egui::Ui, state: &PanelState, snap: &Snapshot) {
     ui.label(format!(
         "step {}   t = {:.3} s   wall {:.3} s   {:.0} fps",
         snap.steps, snap.stats.sim_time, snap.wall_time, state.fps
-    ));
+    ))
+    .on_hover_text("Steps since reset, simulated time, wall-clock time spent running, window frame rate");
     ui.label(format!(
         "step time {:.3} ms   energy {:.4e} J   residual {:.2e}   iterations {}",
         snap.stats.wall_seconds * 1e3,
@@ -272,10 +328,22 @@ fn statistics(ui: &mut egui::Ui, state: &PanelState, snap: &Snapshot) {
         snap.stats.residual,
         snap.stats.iterations
     ));
-    let series = |k: usize| -> Vec<[f64; 2]> { state.history.iter().map(|h| [h[0], h[k]]).collect() };
-    Plot::new("history").height(140.0).legend(Legend::default()).show(ui, |plot| {
-        plot.line(Line::new("step ms", series(1)));
-        plot.line(Line::new("energy J", series(2)));
+    if !snap.info.is_empty() {
+        let info: Vec<String> = snap.info.iter().map(|(k, v)| format!("{k} {v}")).collect();
+        ui.label(info.join("   ")).on_hover_text("What the solver is using right now");
+    }
+    // Step time and energy have unrelated units and scales: one plot each, each with its own axis.
+    history_plot(ui, state, "step_ms", "step time (ms)", 1);
+    history_plot(ui, state, "energy", "energy (J)", 2);
+}
+
+/// One column of the history against simulated time, under its own title and y axis.
+fn history_plot(ui: &mut egui::Ui, state: &PanelState, id: &str, title: &str, column: usize) {
+    let points: Vec<[f64; 2]> = state.history.iter().map(|h| [h[0], h[column]]).collect();
+    ui.label(RichText::new(format!("{title} over simulated time (s)")).small())
+        .on_hover_text("The last 600 steps; drag or scroll to pan, Ctrl+scroll to zoom, double-click to fit");
+    Plot::new(id).height(70.0).show(ui, |plot| {
+        plot.line(Line::new(title, points));
     });
 }
 
@@ -283,10 +351,12 @@ fn drags(ui: &mut egui::Ui, state: &PanelState, snap: &Snapshot, actions: &mut V
     ui.heading("Constraints");
     if snap.drags.is_empty() {
         let how = match state.drag_mode {
-            DragMode::Position => "Left-drag the surface to pull a vertex.",
-            DragMode::Orientation => "Left-drag the surface to twist a vertex.",
+            DragMode::Position => "Left-drag the surface to pull a vertex; it stays pinned when released.",
+            DragMode::Orientation => "Left-drag the surface to twist a vertex; it stays twisted when released.",
         };
         ui.label(how);
+    } else if ui.small_button("Remove all").on_hover_text("Remove every constraint (C)").clicked() {
+        actions.push(UiAction::ClearDrags);
     }
     for (id, d) in &snap.drags {
         ui.horizontal(|ui| {
@@ -314,7 +384,30 @@ impl UiAction {
             UiAction::Reset => Command::Reset,
             UiAction::SetPacing(p) => Command::SetPacing(*p),
             UiAction::RemoveDrag(id) => Command::RemoveDrag(*id),
+            UiAction::ClearDrags => Command::ClearDrags,
             UiAction::SwitchScene(_) | UiAction::SwitchMethod(_) | UiAction::Screenshot => return None,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::format_value;
+
+    #[test]
+    fn values_are_shown_short_and_whole() {
+        let cases = [
+            (1000.0, "1000"),
+            (-9.81, "-9.81"),
+            (1.0 / 30.0, "0.0333333"),
+            (0.0, "0"),
+            (2.0, "2"),
+            (1e-9, "1e-9"),
+            (2.5e6, "2.5e6"),
+            (256.0, "256"),
+        ];
+        for (v, want) in cases {
+            assert_eq!(format_value(v), want, "{v}");
+        }
     }
 }

@@ -3,9 +3,11 @@
 
 use glam::{DVec3, Vec3};
 
+use super::gizmo;
+use crate::collision::{Body, Shape};
 use crate::mesh::generate;
 use crate::render::{Camera, Frame, Marker, MeshDraw};
-use crate::scene::{Collider, Setup};
+use crate::scene::Setup;
 use crate::solver::{Drag, DragId, DragKind};
 
 /// Front (outside) colour of simulated surfaces, linear RGBA.
@@ -19,6 +21,12 @@ const ANCHOR: [f32; 4] = [0.15, 0.15, 0.9, 1.0];
 const POSITION_DRAG: [f32; 4] = [0.95, 0.85, 0.1, 1.0];
 const ORIENTATION_DRAG: [f32; 4] = [0.8, 0.1, 0.8, 1.0];
 const GRID: [f32; 4] = [0.25, 0.27, 0.32, 0.6];
+/// Radius of the rotate gizmo, in marker sizes.
+const GIZMO_MARKERS: f32 = 9.0;
+
+/// Colliders are drawn this far inside their true surface (m), so that cloth resting on them
+/// within the contact margin does not flicker through them.
+const INSET: f64 = 0.0025;
 
 /// How to draw.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -27,13 +35,36 @@ pub struct ViewOptions {
     pub wireframe: bool,
 }
 
+/// A collider's picture: its geometry in the body frame and placed at `t = 0`.
+#[derive(Debug, Clone)]
+struct ColliderDraw {
+    local: MeshDraw,
+    at_rest: MeshDraw,
+    body: Body,
+}
+
+/// `local` moved to the body's pose at time `t`.
+fn placed(local: &MeshDraw, body: &Body, t: f64) -> MeshDraw {
+    let (centre, rotation) = body.pose(t);
+    let (c, r) = (centre.as_vec3(), rotation.as_quat());
+    MeshDraw {
+        positions: local.positions.iter().map(|&p| (r * Vec3::from(p) + c).to_array()).collect(),
+        normals: local.normals.iter().map(|&n| (r * Vec3::from(n)).to_array()).collect(),
+        ..local.clone()
+    }
+}
+
+fn mesh_draw(positions: &[DVec3], triangles: &[[usize; 3]], front: [f32; 4], back: [f32; 4]) -> MeshDraw {
+    MeshDraw::from_positions(positions.iter().map(|&p| f32x3(p)).collect(), triangles_u32(triangles), front, back)
+}
+
 /// The parts of a scene's picture that do not change while it runs, built once.
 #[derive(Debug, Clone)]
 pub struct SceneView {
     camera: Camera,
     triangles: Vec<[u32; 3]>,
     anchors: Vec<usize>,
-    colliders: Vec<MeshDraw>,
+    colliders: Vec<ColliderDraw>,
     grid_height: f32,
     grid_extent: f32,
     marker_size: f32,
@@ -53,40 +84,33 @@ impl SceneView {
         let size = (hi - lo).max_element().max(1e-3);
         let mut grid_height = (lo.y - 0.35 * size) as f32;
         let mut colliders = Vec::new();
-        for collider in &setup.scene.colliders {
-            match *collider {
-                Collider::Sphere { center, radius } => {
-                    if let Ok(ball) = generate::icosphere(radius * 0.995, 12) {
-                        let c = DVec3::from(center);
-                        let positions = ball.positions().iter().map(|&p| f32x3(p + c)).collect();
-                        colliders.push(MeshDraw::from_positions(
-                            positions,
-                            triangles_u32(ball.triangles()),
-                            COLLIDER,
-                            COLLIDER,
-                        ));
+        for body in &setup.bodies {
+            let local = match &body.shape {
+                Shape::Sphere { radius } => match generate::icosphere(radius - INSET, 12) {
+                    Ok(ball) => mesh_draw(ball.positions(), ball.triangles(), COLLIDER, COLLIDER),
+                    Err(_) => continue,
+                },
+                Shape::Plane { normal } => {
+                    if normal.y > 0.99 && !body.is_moving() {
+                        grid_height = body.origin.y as f32;
                     }
-                }
-                Collider::Plane { point, normal } => {
-                    let n = DVec3::from(normal).normalize();
-                    if n.y > 0.99 {
-                        grid_height = point[1] as f32;
-                    }
-                    let p = DVec3::from(point);
-                    let (t, b) = n.any_orthonormal_pair();
+                    let (t, b) = normal.any_orthonormal_pair();
                     let e = 2.0 * size;
-                    let corners = [p - t * e - b * e, p + t * e - b * e, p + t * e + b * e, p - t * e + b * e];
+                    let corners =
+                        [-t * e - b * e, t * e - b * e, t * e + b * e, -t * e + b * e].map(|c| c - *normal * INSET);
                     let tris =
-                        if t.cross(b).dot(n) > 0.0 { vec![[0, 1, 2], [0, 2, 3]] } else { vec![[0, 2, 1], [0, 3, 2]] };
-                    let quad = MeshDraw::from_positions(
-                        corners.iter().map(|&v| f32x3(v)).collect(),
-                        tris,
-                        [0.8, 0.8, 0.78, 1.0],
-                        COLLIDER,
-                    );
-                    colliders.push(quad);
+                        if t.cross(b).dot(*normal) > 0.0 { [[0, 1, 2], [0, 2, 3]] } else { [[0, 2, 1], [0, 3, 2]] };
+                    mesh_draw(&corners, &tris, [0.8, 0.8, 0.78, 1.0], COLLIDER)
                 }
-            }
+                Shape::Mesh(mesh) => {
+                    let mut draw = mesh_draw(mesh.positions(), mesh.triangles(), COLLIDER, COLLIDER);
+                    for (p, n) in draw.positions.iter_mut().zip(&draw.normals) {
+                        *p = (Vec3::from(*p) - Vec3::from(*n) * INSET as f32).to_array();
+                    }
+                    draw
+                }
+            };
+            colliders.push(ColliderDraw { at_rest: placed(&local, body, 0.0), local, body: body.clone() });
         }
         Self {
             camera,
@@ -104,12 +128,22 @@ impl SceneView {
         self.camera
     }
 
-    /// The frame for the simulated `positions` with these drags, seen by `camera`.
-    pub fn frame(&self, camera: Camera, positions: &[DVec3], drags: &[(DragId, Drag)], options: ViewOptions) -> Frame {
+    /// The frame for the simulated `positions` at simulated time `time` (which places moving
+    /// colliders) with these drags, seen by `camera`.
+    pub fn frame(
+        &self,
+        camera: Camera,
+        positions: &[DVec3],
+        time: f64,
+        drags: &[(DragId, Drag)],
+        options: ViewOptions,
+    ) -> Frame {
         let mut frame = Frame::new(camera);
         let spacing = nice_spacing(self.grid_extent / 10.0);
         frame.ground_grid(self.grid_height, self.grid_extent, spacing, GRID);
-        frame.meshes.extend(self.colliders.iter().cloned());
+        for c in &self.colliders {
+            frame.meshes.push(if c.body.is_moving() { placed(&c.local, &c.body, time) } else { c.at_rest.clone() });
+        }
         let mut surface = MeshDraw::from_positions(
             positions.iter().map(|&p| f32x3(p)).collect(),
             self.triangles.clone(),
@@ -134,12 +168,13 @@ impl SceneView {
                     });
                     frame.line(f32x3(p), f32x3(target), POSITION_DRAG);
                 }
-                DragKind::Orientation(_) => {
+                DragKind::Orientation(rotation) => {
                     frame.markers.push(Marker {
                         position: f32x3(p),
                         size: 2.0 * self.marker_size,
                         color: ORIENTATION_DRAG,
                     });
+                    gizmo::rotate_gizmo(&mut frame, p, rotation, f64::from(GIZMO_MARKERS * self.marker_size));
                 }
             }
         }

@@ -46,6 +46,8 @@ pub struct Snapshot {
     pub drags: Vec<(DragId, Drag)>,
     /// The solver's parameters and current values.
     pub params: Vec<ParamValue>,
+    /// The solver's read-only figures (e.g. the active mode count), see [`Solver::info`].
+    pub info: Vec<(&'static str, f64)>,
     /// The solver's method name.
     pub method: &'static str,
     /// Wall-clock seconds spent running since the last reset (for sim time vs wall time).
@@ -66,6 +68,8 @@ pub enum Command {
     MoveDrag(DragId, DragKind),
     /// Remove a drag.
     RemoveDrag(DragId),
+    /// Remove every drag.
+    ClearDrags,
     /// Back to the initial state; clears a divergence.
     Reset,
     /// Pause or resume.
@@ -91,21 +95,11 @@ impl SimHandle {
     /// Start the thread with `solver`, running (or paused).
     pub fn spawn(solver: Box<dyn Solver>, paused: bool, pacing: Pacing) -> Self {
         let (tx, rx) = mpsc::channel();
-        let initial = snapshot_of(solver.as_ref(), 0, StepStats::default(), status(paused), 0.0, None);
-        let (mut input, output) = triple_buffer(&initial);
+        let mut sim = SimLoop::new(solver, paused, pacing);
+        let (mut input, output) = triple_buffer(&sim.snapshot());
         let thread = std::thread::Builder::new()
             .name("shellwarp-sim".into())
             .spawn(move || {
-                let mut sim = SimLoop {
-                    solver,
-                    paused,
-                    pacing,
-                    steps: 0,
-                    stats: StepStats::default(),
-                    diverged: None,
-                    last_error: None,
-                    running_wall: 0.0,
-                };
                 sim.run(&rx, |snap| {
                     *input.input_buffer_mut() = snap;
                     input.publish();
@@ -144,43 +138,46 @@ fn status(paused: bool) -> SimStatus {
     if paused { SimStatus::Paused } else { SimStatus::Running }
 }
 
-fn snapshot_of(
-    solver: &dyn Solver,
-    steps: u64,
-    stats: StepStats,
-    status: SimStatus,
-    wall_time: f64,
-    last_error: Option<String>,
-) -> Snapshot {
-    Snapshot {
-        positions: solver.positions().to_vec(),
-        steps,
-        stats,
-        status,
-        drags: solver.drags().iter().copied().collect(),
-        params: solver.params(),
-        method: solver.method(),
-        wall_time,
-        last_error,
-        progress: solver.progress(),
-    }
-}
-
 struct SimLoop {
     solver: Box<dyn Solver>,
     paused: bool,
     pacing: Pacing,
+    /// Simulated seconds due but not yet stepped (real-time pacing only; never negative).
+    owed: f64,
     steps: u64,
     stats: StepStats,
     diverged: Option<String>,
     last_error: Option<String>,
     running_wall: f64,
+    /// Positions after the latest finite step: what is shown once a step diverges.
+    last_good: Vec<DVec3>,
+    /// The background progress in the latest published snapshot.
+    shown_progress: Option<Progress>,
 }
 
 /// When more than this much simulated time is owed, the backlog is dropped instead of caught up.
 const MAX_BACKLOG: f64 = 0.25;
 
+/// How long an idle (paused or diverged) loop waits for a command before looking at background work.
+const IDLE_WAIT: Duration = Duration::from_millis(20);
+
 impl SimLoop {
+    fn new(solver: Box<dyn Solver>, paused: bool, pacing: Pacing) -> Self {
+        Self {
+            last_good: solver.positions().to_vec(),
+            solver,
+            paused,
+            pacing,
+            owed: 0.0,
+            steps: 0,
+            stats: StepStats::default(),
+            diverged: None,
+            last_error: None,
+            running_wall: 0.0,
+            shown_progress: None,
+        }
+    }
+
     fn status(&self) -> SimStatus {
         match &self.diverged {
             Some(reason) => SimStatus::Diverged(reason.clone()),
@@ -188,15 +185,51 @@ impl SimLoop {
         }
     }
 
-    fn publish(&self, out: &mut impl FnMut(Snapshot)) {
-        out(snapshot_of(
-            self.solver.as_ref(),
-            self.steps,
-            self.stats,
-            self.status(),
-            self.running_wall,
-            self.last_error.clone(),
-        ));
+    fn snapshot(&self) -> Snapshot {
+        let solver = self.solver.as_ref();
+        Snapshot {
+            // A diverged step leaves non-finite or exploded positions in the solver: show the last good ones.
+            positions: if self.diverged.is_some() { self.last_good.clone() } else { solver.positions().to_vec() },
+            steps: self.steps,
+            stats: self.stats,
+            status: self.status(),
+            drags: solver.drags().iter().copied().collect(),
+            params: solver.params(),
+            info: solver.info(),
+            method: solver.method(),
+            wall_time: self.running_wall,
+            last_error: self.last_error.clone(),
+            progress: solver.progress(),
+        }
+    }
+
+    fn publish(&mut self, out: &mut impl FnMut(Snapshot)) {
+        let snapshot = self.snapshot();
+        self.shown_progress.clone_from(&snapshot.progress);
+        out(snapshot);
+    }
+
+    /// Back to time zero with a (possibly new) solver state.
+    fn restart(&mut self) {
+        self.steps = 0;
+        self.stats = StepStats::default();
+        self.diverged = None;
+        self.running_wall = 0.0;
+        self.owed = 0.0;
+        self.remember_positions();
+    }
+
+    fn remember_positions(&mut self) {
+        self.last_good.clear();
+        self.last_good.extend_from_slice(self.solver.positions());
+    }
+
+    /// Let the solver finish background work; true when the published progress is out of date.
+    fn poll_background(&mut self) -> bool {
+        if let Err(e) = self.solver.poll() {
+            self.last_error = Some(e.to_string());
+        }
+        self.solver.progress() != self.shown_progress
     }
 
     /// Apply one command; returns false on Quit.
@@ -206,12 +239,13 @@ impl SimLoop {
             Command::AddDrag(id, drag) => self.solver.drags_mut().insert(id, drag),
             Command::MoveDrag(id, kind) => self.solver.drags_mut().retarget(id, kind),
             Command::RemoveDrag(id) => self.solver.drags_mut().remove(id).map(|_| ()),
+            Command::ClearDrags => {
+                self.solver.drags_mut().clear();
+                Ok(())
+            }
             Command::Reset => {
                 self.solver.reset();
-                self.steps = 0;
-                self.stats = StepStats::default();
-                self.diverged = None;
-                self.running_wall = 0.0;
+                self.restart();
                 Ok(())
             }
             Command::SetPaused(p) => {
@@ -225,14 +259,12 @@ impl SimLoop {
             }
             Command::SetPacing(p) => {
                 self.pacing = p;
+                self.owed = 0.0;
                 Ok(())
             }
             Command::Replace(solver) => {
                 self.solver = solver;
-                self.steps = 0;
-                self.stats = StepStats::default();
-                self.diverged = None;
-                self.running_wall = 0.0;
+                self.restart();
                 Ok(())
             }
             Command::Quit => return false,
@@ -249,6 +281,7 @@ impl SimLoop {
             Ok(stats) => {
                 self.stats = stats;
                 self.steps += 1;
+                self.remember_positions();
             }
             Err(e) => self.diverged = Some(e.to_string()),
         }
@@ -256,12 +289,11 @@ impl SimLoop {
 
     fn run(&mut self, rx: &Receiver<Command>, mut out: impl FnMut(Snapshot)) {
         let mut clock = Instant::now();
-        let mut owed = 0.0; // simulated seconds due but not yet stepped
         loop {
             // Commands first; block briefly when there is nothing to step.
             let idle = self.paused || self.diverged.is_some();
             let first = if idle {
-                match rx.recv_timeout(Duration::from_millis(20)) {
+                match rx.recv_timeout(IDLE_WAIT) {
                     Ok(c) => Some(c),
                     Err(RecvTimeoutError::Timeout) => None,
                     Err(RecvTimeoutError::Disconnected) => return,
@@ -276,11 +308,13 @@ impl SimLoop {
                 }
                 changed = true;
             }
+            // Background work finishes, and its progress is shown, even while nothing steps.
+            changed |= self.poll_background();
             let now = Instant::now();
             let elapsed = now.duration_since(clock).as_secs_f64();
             clock = now;
             if self.paused || self.diverged.is_some() {
-                owed = 0.0;
+                self.owed = 0.0;
                 if changed {
                     self.publish(&mut out);
                 }
@@ -291,12 +325,17 @@ impl SimLoop {
             let due = match self.pacing {
                 Pacing::AsFastAsPossible => true,
                 Pacing::Scaled(speed) => {
-                    owed = (owed + elapsed * speed).min(MAX_BACKLOG.max(h));
-                    owed >= h
+                    // Bounded catch-up: a backlog beyond MAX_BACKLOG is dropped, not stepped.
+                    self.owed = (self.owed + elapsed * speed).min(MAX_BACKLOG.max(h));
+                    if self.owed >= h {
+                        self.owed -= h;
+                        true
+                    } else {
+                        false
+                    }
                 }
             };
             if due {
-                owed -= h;
                 self.step();
                 self.publish(&mut out);
             } else {
@@ -304,7 +343,7 @@ impl SimLoop {
                     self.publish(&mut out);
                 }
                 if let Pacing::Scaled(speed) = self.pacing {
-                    let wait = ((h - owed) / speed.max(1e-6)).clamp(0.0, 0.005);
+                    let wait = ((h - self.owed) / speed.max(1e-6)).clamp(0.0, 0.005);
                     std::thread::sleep(Duration::from_secs_f64(wait));
                 }
             }

@@ -1,25 +1,29 @@
 //! The interactive viewer: a winit window whose surface the shared renderer draws into, an egui panel
-//! on top, mouse picking and dragging, and the simulation on its own thread.
+//! on top, pointer gestures that pick and drag vertices, scene and method switches built in the
+//! background, and the simulation on its own thread.
 
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::{Context, anyhow};
-use glam::{DVec3, Vec2, Vec3};
+use anyhow::Context;
+use glam::Vec2;
 use winit::application::ApplicationHandler;
-use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event::{ElementState, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
-use super::orbit::{Orbit, pick_vertex, pixel_ray, view_plane_point};
-use super::panel::{self, DragMode, PanelState, UiAction};
+use super::gestures::{Gestures, ViewUnderPointer};
+use super::loader::{self, Loaded, Loader, SceneSource};
+use super::orbit::Orbit;
+use super::panel::{self, PanelState, UiAction};
 use super::scene_view::{SceneView, ViewOptions};
-use super::sim_thread::{Command, Pacing, SimHandle};
-use crate::render::{Gpu, Renderer, read_texture, save_png};
+use super::sim_thread::{Command, Pacing, SimHandle, SimStatus, Snapshot};
+use super::surface::{PanelPaint, WindowSurface};
+use crate::render::Camera;
 use crate::scene::{self, Setup};
-use crate::solver::{self, Drag, DragId, DragKind, METHODS};
+use crate::solver::{Drag, DragKind, METHODS};
 
 /// What to open and, for tests and scripts, what to do unattended.
 #[derive(Debug, Clone, Default)]
@@ -36,13 +40,14 @@ pub struct ViewerOptions {
     pub screenshot_after: Option<u64>,
     /// Where screenshots go (F12 and `screenshot_after`).
     pub out: PathBuf,
-    /// A scripted drag sent through the same command channel as the mouse: vertex and target.
-    pub drag: Option<(usize, DVec3)>,
+    /// Scripted drags, sent through the same command channel as the mouse.
+    pub drags: Vec<Drag>,
     /// With `screenshot_after`: also write the simulation state shown in the screenshot as JSON.
     pub state_out: Option<PathBuf>,
 }
 
-/// The simulation state written by `state_out`: what the screenshot shows, as numbers.
+/// The simulation state written by `state_out`: what the screenshot shows, as numbers, and how it
+/// was projected (so a test can find a vertex's pixel).
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct ViewerState {
     /// Steps taken.
@@ -51,54 +56,57 @@ pub struct ViewerState {
     pub positions: Vec<[f64; 3]>,
     /// Position-drag targets by vertex.
     pub position_drags: Vec<(usize, [f64; 3])>,
+    /// Camera eye.
+    pub eye: [f32; 3],
+    /// Camera target (the camera's up is +y).
+    pub target: [f32; 3],
+    /// Vertical field of view, degrees.
+    pub fov_y_deg: f32,
+    /// The 3D viewport in the window, pixels: `[x, y, width, height]`.
+    pub viewport: [f32; 4],
+}
+
+impl ViewerState {
+    /// The camera the screenshot was taken with.
+    pub fn camera(&self) -> Camera {
+        let mut camera = Camera::look_at(self.eye.into(), self.target.into());
+        camera.fov_y_deg = self.fov_y_deg;
+        camera
+    }
 }
 
 /// Open the window and run until it is closed (or the unattended screenshot is taken).
 pub fn run(options: ViewerOptions) -> anyhow::Result<()> {
-    let setup = scene::load(&options.scene, &options.overrides)?;
-    let solver = solver::build(&setup).with_context(|| format!("building solver for {}", setup.origin.label))?;
+    let loaded = loader::load(SceneSource { scene: options.scene.clone(), overrides: options.overrides.clone() })?;
     let event_loop = EventLoop::new().context("opening the display (is DISPLAY set? try xvfb-run)")?;
-    let mut app = App { options, pending: Some((setup, solver)), running: None, error: None };
+    let mut app = App { options, pending: Some(loaded), running: None, error: None };
     event_loop.run_app(&mut app).context("running the event loop")?;
     app.error.map_or(Ok(()), Err)
 }
 
 struct App {
     options: ViewerOptions,
-    pending: Option<(Setup, Box<dyn solver::Solver>)>,
+    pending: Option<Loaded>,
     running: Option<Running>,
     error: Option<anyhow::Error>,
 }
 
-/// An active pointer gesture.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Gesture {
-    None,
-    Orbit,
-    Pan,
-    Drag { id: DragId, vertex: usize, start: Vec2, mode: DragMode },
-}
-
 struct Running {
     window: Arc<Window>,
-    surface: wgpu::Surface<'static>,
-    config: wgpu::SurfaceConfiguration,
-    gpu: Gpu,
-    renderer: Renderer,
+    surface: WindowSurface,
     egui_state: egui_winit::State,
-    egui_renderer: egui_wgpu::Renderer,
     sim: SimHandle,
+    source: SceneSource,
     setup: Setup,
     view: SceneView,
     orbit: Orbit,
     panel: PanelState,
+    loader: Loader,
     pointer: Vec2,
-    gesture: Gesture,
-    next_drag: u64,
+    gestures: Gestures,
     frames: u64,
     last_frame: Instant,
     screenshot: bool,
-    message: Option<String>,
     /// Width of the side panel in points (the 3D view is the rest of the window).
     panel_width: f32,
 }
@@ -108,8 +116,8 @@ impl ApplicationHandler for App {
         if self.running.is_some() {
             return;
         }
-        let Some((setup, solver)) = self.pending.take() else { return };
-        match Running::new(event_loop, &self.options, setup, solver) {
+        let Some(loaded) = self.pending.take() else { return };
+        match Running::new(event_loop, &self.options, loaded) {
             Ok(r) => {
                 r.window.request_redraw();
                 self.running = Some(r);
@@ -131,93 +139,52 @@ impl ApplicationHandler for App {
 }
 
 impl Running {
-    fn new(
-        event_loop: &ActiveEventLoop,
-        options: &ViewerOptions,
-        setup: Setup,
-        solver: Box<dyn solver::Solver>,
-    ) -> anyhow::Result<Self> {
+    fn new(event_loop: &ActiveEventLoop, options: &ViewerOptions, loaded: Loaded) -> anyhow::Result<Self> {
+        let Loaded { source, setup, solver } = loaded;
         let (w, h) = options.size;
         let attributes = Window::default_attributes()
             .with_title(format!("shellwarp — {}", setup.scene.name))
             .with_inner_size(winit::dpi::PhysicalSize::new(w, h));
         let window = Arc::new(event_loop.create_window(attributes).context("creating the window")?);
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(
-            event_loop.owned_display_handle(),
-        )));
-        let surface = instance.create_surface(window.clone()).context("creating the window surface")?;
-        let gpu = Gpu::for_surface(instance, &surface)?;
-        let caps = surface.get_capabilities(&gpu.adapter);
-        let format = caps.formats.iter().copied().find(wgpu::TextureFormat::is_srgb).or(caps.formats.first().copied());
-        let format = format.ok_or_else(|| anyhow!("the window surface offers no colour format"))?;
-        let mut usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
-        if caps.usages.contains(wgpu::TextureUsages::COPY_SRC) {
-            usage |= wgpu::TextureUsages::COPY_SRC;
-        }
-        let size = window.inner_size();
-        let config = wgpu::SurfaceConfiguration {
-            usage,
-            format,
-            color_space: wgpu::SurfaceColorSpace::Auto,
-            width: size.width.max(1),
-            height: size.height.max(1),
-            present_mode: wgpu::PresentMode::AutoVsync,
-            desired_maximum_frame_latency: 2,
-            alpha_mode: caps.alpha_modes.first().copied().unwrap_or(wgpu::CompositeAlphaMode::Auto),
-            view_formats: vec![],
-        };
-        surface.configure(&gpu.device, &config);
-        let renderer = Renderer::new(&gpu, format, 4)?;
-        let ctx = egui::Context::default();
+        let surface = WindowSurface::new(event_loop, window.clone())?;
         let egui_state = egui_winit::State::new(
-            ctx,
+            egui::Context::default(),
             egui::ViewportId::ROOT,
             &window,
             Some(window.scale_factor() as f32),
             None,
             None,
         );
-        let egui_renderer = egui_wgpu::Renderer::new(&gpu.device, format, egui_wgpu::RendererOptions::default());
         let sim = SimHandle::spawn(solver, options.paused, Pacing::Scaled(1.0));
         let view = SceneView::new(&setup);
         let orbit = Orbit::from_camera(&view.camera());
         let panel = PanelState::new(
             scene::builtin_names().into_iter().map(String::from).collect(),
             METHODS.iter().map(|m| m.name.to_string()).collect(),
-            setup.scene.name.clone(),
+            source.scene.clone(),
         );
-        let mut running = Self {
+        let mut gestures = Gestures::default();
+        for &drag in &options.drags {
+            sim.send(Command::AddDrag(gestures.new_drag_id(), drag));
+        }
+        Ok(Self {
             window,
             surface,
-            config,
-            gpu,
-            renderer,
             egui_state,
-            egui_renderer,
             sim,
+            source,
             setup,
             view,
             orbit,
             panel,
+            loader: Loader::default(),
             pointer: Vec2::ZERO,
-            gesture: Gesture::None,
-            next_drag: 1 << 32,
+            gestures,
             frames: 0,
             last_frame: Instant::now(),
             screenshot: false,
-            message: None,
             panel_width: 0.0,
-        };
-        if let Some((vertex, target)) = options.drag {
-            let id = running.new_drag_id();
-            running.sim.send(Command::AddDrag(id, Drag { vertex, kind: DragKind::Position(target) }));
-        }
-        Ok(running)
-    }
-
-    fn new_drag_id(&mut self) -> DragId {
-        self.next_drag += 1;
-        DragId(self.next_drag)
+        })
     }
 
     fn handle(
@@ -229,11 +196,7 @@ impl Running {
         let consumed = self.egui_state.on_window_event(&self.window, &event).consumed;
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
-            WindowEvent::Resized(size) => {
-                self.config.width = size.width.max(1);
-                self.config.height = size.height.max(1);
-                self.surface.configure(&self.gpu.device, &self.config);
-            }
+            WindowEvent::Resized(size) => self.surface.resize(size.width, size.height),
             WindowEvent::RedrawRequested if self.redraw(options)? => event_loop.exit(),
             WindowEvent::KeyboardInput { event, .. } if !consumed && event.state == ElementState::Pressed => {
                 self.key(event_loop, &event.logical_key);
@@ -244,7 +207,8 @@ impl Running {
                 self.pointer = p;
                 self.pointer_moved(delta);
             }
-            WindowEvent::MouseInput { state, button, .. } => self.button(state, button, consumed),
+            WindowEvent::MouseInput { state: ElementState::Released, .. } => self.gestures.release(),
+            WindowEvent::MouseInput { button, .. } if !consumed => self.pressed(button),
             WindowEvent::MouseWheel { delta, .. } if !consumed => {
                 let steps = match delta {
                     MouseScrollDelta::LineDelta(_, y) => y,
@@ -258,7 +222,7 @@ impl Running {
     }
 
     fn key(&mut self, event_loop: &ActiveEventLoop, key: &Key) {
-        let paused = !matches!(self.sim.latest().status, super::sim_thread::SimStatus::Running);
+        let paused = !matches!(self.sim.latest().status, SimStatus::Running);
         match key {
             Key::Named(NamedKey::Escape) => event_loop.exit(),
             Key::Named(NamedKey::Space) => self.sim.send(Command::SetPaused(!paused)),
@@ -270,6 +234,7 @@ impl Running {
             Key::Character(c) => match c.as_str() {
                 "s" | "S" => self.sim.send(Command::StepOnce),
                 "r" | "R" => self.sim.send(Command::Reset),
+                "c" | "C" => self.sim.send(Command::ClearDrags),
                 "w" | "W" => self.panel.wireframe = !self.panel.wireframe,
                 "+" | "=" => self.orbit.zoom(1.0),
                 "-" => self.orbit.zoom(-1.0),
@@ -281,110 +246,98 @@ impl Running {
 
     /// The part of the window right of the panel, in pixels: `[x, y, width, height]`.
     fn viewport_rect(&self) -> [f32; 4] {
-        let (w, h) = (self.config.width as f32, self.config.height as f32);
+        let (w, h) = self.surface.size();
+        let (w, h) = (w as f32, h as f32);
         let x = (self.panel_width * self.window.scale_factor() as f32).clamp(0.0, w - 1.0);
         [x, 0.0, w - x, h]
     }
 
-    /// Size of the 3D viewport.
-    fn viewport(&self) -> Vec2 {
-        let [_, _, w, h] = self.viewport_rect();
-        Vec2::new(w, h)
+    /// The pointer in viewport coordinates and the viewport's size.
+    fn pointer_in_viewport(&self) -> (Vec2, Vec2) {
+        let [x, _, w, h] = self.viewport_rect();
+        (self.pointer - Vec2::new(x, 0.0), Vec2::new(w, h))
     }
 
-    /// The pointer in viewport coordinates.
-    fn viewport_pointer(&self) -> Vec2 {
-        self.pointer - Vec2::new(self.viewport_rect()[0], 0.0)
-    }
-
-    fn button(&mut self, state: ElementState, button: MouseButton, consumed: bool) {
-        if state == ElementState::Released {
-            if let Gesture::Drag { id, .. } = self.gesture {
-                self.sim.send(Command::RemoveDrag(id));
-            }
-            self.gesture = Gesture::None;
-            return;
-        }
-        if consumed {
-            return;
-        }
-        self.gesture = match button {
-            MouseButton::Left => self.start_drag().unwrap_or(Gesture::Orbit),
-            MouseButton::Right => Gesture::Orbit,
-            MouseButton::Middle => Gesture::Pan,
-            _ => Gesture::None,
-        };
-    }
-
-    /// Pick the vertex under the pointer and add a constraint on it.
-    fn start_drag(&mut self) -> Option<Gesture> {
-        let camera = self.orbit.camera();
-        let positions: Vec<Vec3> = self.sim.latest().positions.iter().map(|p| p.as_vec3()).collect();
-        let vertex = pick_vertex(&camera, &positions, self.viewport_pointer(), self.viewport(), 12.0)?;
-        if self.setup.anchors.binary_search(&vertex).is_ok() {
-            return None;
-        }
-        let id = self.new_drag_id();
+    fn pressed(&mut self, button: winit::event::MouseButton) {
         let mode = self.panel.drag_mode;
-        let kind = match mode {
-            DragMode::Position => DragKind::Position(positions[vertex].as_dvec3()),
-            DragMode::Orientation => DragKind::Orientation(DVec3::ZERO),
-        };
-        self.sim.send(Command::AddDrag(id, Drag { vertex, kind }));
-        Some(Gesture::Drag { id, vertex, start: self.pointer, mode })
+        self.gesture(|gestures, orbit, view| gestures.press(button, orbit, view, mode));
     }
 
     fn pointer_moved(&mut self, delta: Vec2) {
-        let camera = self.orbit.camera();
-        match self.gesture {
-            Gesture::None => {}
-            Gesture::Orbit => self.orbit.rotate(delta),
-            Gesture::Pan => self.orbit.pan(delta, self.viewport().y),
-            Gesture::Drag { id, vertex, mode: DragMode::Position, .. } => {
-                let Some(p) = self.sim.latest().positions.get(vertex).map(|p| p.as_vec3()) else { return };
-                let ray = pixel_ray(&camera, self.viewport_pointer(), self.viewport());
-                let target = view_plane_point(&camera, &ray, p);
-                self.sim.send(Command::MoveDrag(id, DragKind::Position(target.as_dvec3())));
-            }
-            Gesture::Drag { id, start, mode: DragMode::Orientation, .. } => {
-                // Rotate about the screen axes: horizontal motion turns about "up", vertical about "right".
-                let d = (self.pointer - start) * 0.01;
-                let w = camera.true_up() * d.x + camera.right() * d.y;
-                self.sim.send(Command::MoveDrag(id, DragKind::Orientation(w.as_dvec3())));
-            }
-        }
+        self.gesture(|gestures, orbit, view| gestures.moved(delta, orbit, view));
     }
 
-    fn apply(&mut self, action: UiAction) -> anyhow::Result<()> {
-        if let Some(c) = action.command() {
-            self.sim.send(c);
-            return Ok(());
-        }
-        let overrides = match &action {
-            UiAction::SwitchScene(name) => {
-                self.message = None;
-                let setup = scene::load(name, &[])?;
-                return self.switch(setup);
-            }
-            UiAction::SwitchMethod(m) => vec![format!("solver.method={m}")],
-            UiAction::Screenshot => {
-                self.screenshot = true;
-                return Ok(());
-            }
-            _ => return Ok(()),
+    /// Feed the gesture state machine what is under the pointer; send the commands it produces.
+    fn gesture(&mut self, step: impl FnOnce(&mut Gestures, &mut Orbit, &ViewUnderPointer<'_>) -> Vec<Command>) {
+        let (pixel, viewport) = self.pointer_in_viewport();
+        let snap = self.sim.latest();
+        let view = ViewUnderPointer {
+            pixel,
+            viewport,
+            positions: &snap.positions,
+            anchors: &self.setup.anchors,
+            drags: &snap.drags,
         };
-        let setup = scene::load(&self.panel.scene, &overrides)?;
-        self.switch(setup)
+        let commands = step(&mut self.gestures, &mut self.orbit, &view);
+        commands.into_iter().for_each(|c| self.sim.send(c));
     }
 
-    fn switch(&mut self, setup: Setup) -> anyhow::Result<()> {
-        let solver = solver::build(&setup)?;
-        self.sim.send(Command::Replace(solver));
-        self.view = SceneView::new(&setup);
-        self.orbit = Orbit::from_camera(&self.view.camera());
-        self.window.set_title(&format!("shellwarp — {}", setup.scene.name));
-        self.setup = setup;
-        Ok(())
+    fn apply(&mut self, action: UiAction) {
+        match action {
+            UiAction::SwitchScene(name) => self.loader.start(SceneSource { scene: name, overrides: Vec::new() }),
+            UiAction::SwitchMethod(method) => self.loader.start(self.source.with_method(&method)),
+            UiAction::Screenshot => self.screenshot = true,
+            other => {
+                if let Some(c) = other.command() {
+                    self.sim.send(c);
+                }
+            }
+        }
+    }
+
+    /// Take over a scene built in the background, or report why it failed.
+    fn finish_switch(&mut self) {
+        match self.loader.poll() {
+            None => {}
+            Some(Ok(Loaded { source, setup, solver })) => {
+                self.sim.send(Command::Replace(solver));
+                self.view = SceneView::new(&setup);
+                self.orbit = Orbit::from_camera(&self.view.camera());
+                self.window.set_title(&format!("shellwarp — {}", setup.scene.name));
+                self.panel.scene.clone_from(&source.scene);
+                self.panel.message = None;
+                self.source = source;
+                self.setup = setup;
+            }
+            Some(Err(e)) => {
+                self.panel.message = Some(e.to_string());
+                self.panel.scene.clone_from(&self.source.scene);
+            }
+        }
+        self.panel.loading = self.loader.status();
+    }
+
+    /// Run the panel for `snapshot`; returns what it drew.
+    fn panel(&mut self, snapshot: &Snapshot) -> PanelPaint {
+        let raw = self.egui_state.take_egui_input(&self.window);
+        let mut actions = Vec::new();
+        let panel = &mut self.panel;
+        let mut panel_width = self.panel_width;
+        let ctx = self.egui_state.egui_ctx().clone();
+        let output = ctx.run_ui(raw, |ui| {
+            let shown = egui::Panel::left("controls").resizable(true).default_size(330.0).show(ui, |ui| {
+                actions = panel::show(ui, panel, snapshot);
+            });
+            panel_width = shown.response.rect.width();
+        });
+        self.panel_width = panel_width;
+        actions.into_iter().for_each(|a| self.apply(a));
+        self.egui_state.handle_platform_output(&self.window, output.platform_output);
+        PanelPaint {
+            primitives: ctx.tessellate(output.shapes, output.pixels_per_point),
+            textures: output.textures_delta,
+            pixels_per_point: output.pixels_per_point,
+        }
     }
 
     /// Draw one frame; returns true when the unattended screenshot is done and the app should exit.
@@ -393,114 +346,80 @@ impl Running {
         let dt = now.duration_since(self.last_frame).as_secs_f64();
         self.last_frame = now;
         self.panel.fps = if dt > 0.0 { 0.9 * self.panel.fps + 0.1 / dt } else { self.panel.fps };
+        self.finish_switch();
         let snapshot = self.sim.latest().clone();
-
         // The panel first, so its actions apply before the scene is drawn.
-        let raw = self.egui_state.take_egui_input(&self.window);
-        let mut actions = Vec::new();
-        let message = self.message.clone();
-        let panel = &mut self.panel;
-        let mut panel_width = self.panel_width;
-        let output = self.egui_state.egui_ctx().clone().run_ui(raw, |ui| {
-            let shown = egui::Panel::left("controls").resizable(true).default_size(330.0).show(ui, |ui| {
-                if let Some(m) = &message {
-                    ui.colored_label(egui::Color32::from_rgb(220, 60, 40), m);
-                }
-                actions = panel::show(ui, panel, &snapshot);
-            });
-            panel_width = shown.response.rect.width();
-        });
-        self.panel_width = panel_width;
-        for a in actions {
-            if let Err(e) = self.apply(a) {
-                self.message = Some(format!("{e:#}"));
-            }
-        }
-        self.egui_state.handle_platform_output(&self.window, output.platform_output);
-        let ctx = self.egui_state.egui_ctx().clone();
-        let paint = ctx.tessellate(output.shapes, output.pixels_per_point);
-
-        let frame_texture = match self.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
-            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
-                self.surface.configure(&self.gpu.device, &self.config);
-                self.window.request_redraw();
-                return Ok(false);
-            }
-            _ => {
-                self.window.request_redraw();
-                return Ok(false);
-            }
-        };
-        let target = frame_texture.texture.create_view(&Default::default());
-        let size = (self.config.width, self.config.height);
-        let mut frame = self.view.frame(
-            self.orbit.camera(),
-            &snapshot.positions,
-            &snapshot.drags,
-            ViewOptions { wireframe: self.panel.wireframe },
-        );
+        let paint = self.panel(&snapshot);
+        let camera = self.orbit.camera();
+        let options_view = ViewOptions { wireframe: self.panel.wireframe };
+        let mut frame =
+            self.view.frame(camera, &snapshot.positions, snapshot.stats.sim_time, &snapshot.drags, options_view);
         frame.viewport = Some(self.viewport_rect());
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-        self.renderer.encode(&self.gpu, &mut encoder, &frame, &target, size)?;
-        let screen =
-            egui_wgpu::ScreenDescriptor { size_in_pixels: [size.0, size.1], pixels_per_point: output.pixels_per_point };
-        for (id, deltas) in &output.textures_delta.set {
-            for delta in deltas {
-                self.egui_renderer.update_texture(&self.gpu.device, &self.gpu.queue, *id, delta);
-            }
-        }
-        let extra = self.egui_renderer.update_buffers(&self.gpu.device, &self.gpu.queue, &mut encoder, &paint, &screen);
-        {
-            let pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("egui"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &target,
-                    resolve_target: None,
-                    depth_slice: None,
-                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
-                })],
-                ..Default::default()
-            });
-            self.egui_renderer.render(&mut pass.forget_lifetime(), &paint, &screen);
-        }
-        self.gpu.queue.submit(extra.into_iter().chain([encoder.finish()]));
-        for id in &output.textures_delta.free {
-            self.egui_renderer.free_texture(id);
-        }
+        self.window.request_redraw();
+        let Some(texture) = self.surface.draw(&frame, paint)? else { return Ok(false) };
         self.frames += 1;
         let unattended = options.screenshot_after.is_some_and(|n| self.frames >= n);
         if self.screenshot || unattended {
             self.screenshot = false;
-            self.save_screenshot(&frame_texture.texture, &options.out)?;
+            let saved = self.surface.save(&texture, &options.out);
+            screenshot_outcome(saved, unattended, &mut self.panel)?;
         }
         if let (true, Some(path)) = (unattended, &options.state_out) {
-            let state = ViewerState {
-                steps: snapshot.steps,
-                positions: snapshot.positions.iter().map(|p| p.to_array()).collect(),
-                position_drags: snapshot
-                    .drags
-                    .iter()
-                    .filter_map(|(_, d)| match d.kind {
-                        DragKind::Position(t) => Some((d.vertex, t.to_array())),
-                        DragKind::Orientation(_) => None,
-                    })
-                    .collect(),
-            };
+            let state = viewer_state(&snapshot, &camera, self.viewport_rect());
             std::fs::write(path, serde_json::to_string(&state)?)
                 .with_context(|| format!("writing {}", path.display()))?;
         }
-        self.gpu.queue.present(frame_texture);
-        self.window.request_redraw();
+        self.surface.present(texture);
         Ok(unattended)
     }
+}
 
-    fn save_screenshot(&self, texture: &wgpu::Texture, out: &PathBuf) -> anyhow::Result<()> {
-        if !self.config.usage.contains(wgpu::TextureUsages::COPY_SRC) {
-            return Err(anyhow!("this window surface cannot be read back (no COPY_SRC), so no screenshot"));
+/// An unattended screenshot that fails ends the run with the error; an interactive one (F12, the
+/// button) shows it in the panel and the viewer carries on.
+fn screenshot_outcome(saved: anyhow::Result<()>, unattended: bool, panel: &mut PanelState) -> anyhow::Result<()> {
+    match saved {
+        Err(e) if unattended => Err(e),
+        Err(e) => {
+            panel.message = Some(format!("screenshot failed: {e:#}"));
+            Ok(())
         }
-        let image = read_texture(&self.gpu, texture)?;
-        save_png(&image, out).with_context(|| format!("saving {}", out.display()))?;
-        Ok(())
+        Ok(()) => Ok(()),
+    }
+}
+
+fn viewer_state(snapshot: &Snapshot, camera: &Camera, viewport: [f32; 4]) -> ViewerState {
+    ViewerState {
+        steps: snapshot.steps,
+        positions: snapshot.positions.iter().map(|p| p.to_array()).collect(),
+        position_drags: snapshot
+            .drags
+            .iter()
+            .filter_map(|(_, d)| match d.kind {
+                DragKind::Position(t) => Some((d.vertex, t.to_array())),
+                DragKind::Orientation(_) => None,
+            })
+            .collect(),
+        eye: camera.eye.to_array(),
+        target: camera.target.to_array(),
+        fov_y_deg: camera.fov_y_deg,
+        viewport,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use anyhow::anyhow;
+
+    use super::*;
+
+    #[test]
+    fn a_failed_interactive_screenshot_is_shown_not_fatal() {
+        let mut panel = PanelState::new(Vec::new(), Vec::new(), "s".into());
+        let failed = || Err(anyhow!("saving /nope/x.png: No such file or directory"));
+        assert!(screenshot_outcome(failed(), false, &mut panel).is_ok(), "the viewer keeps running");
+        assert!(panel.message.as_deref().is_some_and(|m| m.contains("/nope/x.png")), "{:?}", panel.message);
+        let mut quiet = PanelState::new(Vec::new(), Vec::new(), "s".into());
+        assert!(screenshot_outcome(failed(), true, &mut quiet).is_err(), "an unattended run fails with it");
+        assert!(screenshot_outcome(Ok(()), false, &mut quiet).is_ok() && quiet.message.is_none());
     }
 }

@@ -10,7 +10,7 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 
-/// Real-time thin shells and cloth: modal warping, implicit particle cloth and PBD.
+/// Real-time thin shells (modal warping, linear modal analysis, discrete shells) and implicit particle cloth.
 #[derive(Debug, Parser)]
 #[command(name = "shellwarp", version, about)]
 pub struct Cli {
@@ -57,6 +57,30 @@ impl SceneArgs {
         }
         Ok(shellwarp::scene::load(&self.scene, &overrides)?)
     }
+}
+
+impl Cli {
+    /// Whether the command opens the GPU (the viewer and `render`).
+    pub fn uses_gpu(&self) -> bool {
+        matches!(self.command, None | Some(Command::View(_) | Command::Render(_)))
+    }
+}
+
+/// Mesa's Vulkan device-select layer connects to Wayland while it lists GPUs, and libwayland then
+/// prints "error: XDG_RUNTIME_DIR is invalid or not set in the environment." twice when that variable
+/// is missing (root shells, containers), whatever the command's own outcome. Setting an environment
+/// variable in-process needs `unsafe`, so a GPU command in such an environment runs itself again
+/// with the layer disabled (`NODEVICE_SELECT=1`; wgpu chooses the adapter itself anyway) and exits
+/// with the child's status. `None`: no need, or the re-run could not be started; carry on here.
+pub fn rerun_quietly(cli: &Cli) -> Option<ExitCode> {
+    let runtime_dir_ok = std::env::var_os("XDG_RUNTIME_DIR").is_some_and(|d| d.to_string_lossy().starts_with('/'));
+    if !cli.uses_gpu() || runtime_dir_ok || std::env::var_os("NODEVICE_SELECT").is_some() {
+        return None;
+    }
+    let exe = std::env::current_exe().ok()?;
+    let status =
+        std::process::Command::new(exe).args(std::env::args_os().skip(1)).env("NODEVICE_SELECT", "1").status().ok()?;
+    Some(status.code().and_then(|c| u8::try_from(c).ok()).map_or(ExitCode::FAILURE, ExitCode::from))
 }
 
 /// Run the parsed command.

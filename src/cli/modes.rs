@@ -15,8 +15,8 @@ pub struct ModesArgs {
     #[command(flatten)]
     scene: SceneArgs,
     /// Number of modes (default: the scene's `solver.modes`).
-    #[arg(long)]
-    modes: Option<usize>,
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    modes: Option<u32>,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
@@ -51,7 +51,7 @@ pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
         anchors: &setup.anchors,
         masses: &masses,
         stiffness: ShellStiffness::from(m),
-        modes: args.modes.unwrap_or(setup.scene.solver.modes),
+        modes: args.modes.map_or(setup.scene.solver.modes, |m| m as usize),
     };
     let bar = indicatif::ProgressBar::new(100).with_message("modal analysis");
     if args.json {

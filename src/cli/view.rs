@@ -5,8 +5,9 @@ use std::process::ExitCode;
 
 use glam::DVec3;
 use shellwarp::app::viewer::{self, ViewerOptions};
+use shellwarp::solver::{Drag, DragKind};
 
-use super::render::parse_size;
+use super::render::parse_size_up_to;
 
 /// Arguments of `shellwarp view`.
 #[derive(Debug, Clone, clap::Parser)]
@@ -21,8 +22,8 @@ pub struct ViewArgs {
     /// Override a scene value, e.g. `--set material.k_bend=0.02` (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
-    /// Window size, WIDTHxHEIGHT.
-    #[arg(long, default_value = "1280x760", value_parser = parse_size)]
+    /// Window size, WIDTHxHEIGHT (each side at most 8192).
+    #[arg(long, default_value = "1280x760", value_parser = parse_window_size)]
     size: (u32, u32),
     /// Start paused.
     #[arg(long)]
@@ -33,9 +34,14 @@ pub struct ViewArgs {
     /// Screenshot file (F12, and --screenshot-after).
     #[arg(long, default_value = "shellwarp-screenshot.png")]
     out: PathBuf,
-    /// Scripted drag, sent through the same command channel as the mouse: VERTEX:X,Y,Z.
+    /// Scripted position drag, sent through the same command channel as the mouse: VERTEX:X,Y,Z
+    /// (target in metres; repeatable).
     #[arg(long, value_name = "VERTEX:X,Y,Z", value_parser = parse_drag)]
-    drag: Option<(usize, DVec3)>,
+    drag: Vec<(usize, DVec3)>,
+    /// Scripted orientation drag, like --drag: VERTEX:WX,WY,WZ (rotation vector, axis × angle in
+    /// radians; repeatable).
+    #[arg(long, value_name = "VERTEX:WX,WY,WZ", value_parser = parse_drag)]
+    twist: Vec<(usize, DVec3)>,
     /// With --screenshot-after: also write the simulation state in the screenshot as JSON.
     #[arg(long, value_name = "FILE")]
     state_out: Option<PathBuf>,
@@ -47,7 +53,12 @@ impl Default for ViewArgs {
     }
 }
 
-/// Parse `VERTEX:X,Y,Z`.
+/// Parse a window size `WIDTHxHEIGHT`, each side from 1 to 8192.
+fn parse_window_size(s: &str) -> Result<(u32, u32), String> {
+    parse_size_up_to(s, 8192)
+}
+
+/// Parse `VERTEX:X,Y,Z` (also `VERTEX:WX,WY,WZ`).
 fn parse_drag(s: &str) -> Result<(usize, DVec3), String> {
     let bad = || format!("`{s}`: expected VERTEX:X,Y,Z, e.g. 204:0.5,0.2,0.0");
     let (v, xyz) = s.split_once(':').ok_or_else(bad)?;
@@ -66,15 +77,49 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
         shellwarp::solver::registry::find(m)?;
         overrides.push(format!("solver.method={m}"));
     }
-    viewer::run(ViewerOptions {
+    let options = ViewerOptions {
         scene: args.scene.clone(),
         overrides,
         size: args.size,
         paused: args.paused,
         screenshot_after: args.screenshot_after,
         out: args.out.clone(),
-        drag: args.drag,
+        drags: args
+            .drag
+            .iter()
+            .map(|&(vertex, p)| Drag { vertex, kind: DragKind::Position(p) })
+            .chain(args.twist.iter().map(|&(vertex, w)| Drag { vertex, kind: DragKind::Orientation(w) }))
+            .collect(),
         state_out: args.state_out.clone(),
-    })?;
+    };
+    viewer::run(options).map_err(|e| anyhow::anyhow!(without_source_location(&format!("{e:#}"))))?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// winit's OS errors begin with a place in winit's own source (`os error at /…/winit-0.30.13/src/…/mod.rs:765: `),
+/// which means nothing to a user: drop it and keep the message.
+fn without_source_location(message: &str) -> String {
+    const MARK: &str = "os error at ";
+    let Some(start) = message.find(MARK) else { return message.to_string() };
+    let rest = &message[start + MARK.len()..];
+    let end = rest.find(".rs:").and_then(|i| rest[i..].find(": ").map(|j| i + j + 2));
+    match end {
+        Some(end) => format!("{}{}", &message[..start], &rest[end..]),
+        None => message.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn winit_source_locations_are_dropped() {
+        let raw = "opening the display (is DISPLAY set? try xvfb-run): os error at /root/.cargo/registry/src/x/winit-0.30.13/src/platform_impl/linux/mod.rs:765: neither WAYLAND_DISPLAY nor DISPLAY is set.";
+        assert_eq!(
+            without_source_location(raw),
+            "opening the display (is DISPLAY set? try xvfb-run): neither WAYLAND_DISPLAY nor DISPLAY is set."
+        );
+        assert_eq!(without_source_location("no location: fine"), "no location: fine");
+    }
 }

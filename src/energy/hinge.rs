@@ -21,8 +21,9 @@
 //! `∂N/∂p = [r − q]×`, `∂N/∂q = [p − r]×`, `∂N/∂r = [q − p]×` for a triangle `(p, q, r)`:
 //! `∂(∇_c θ)/∂x_k = −(1/|N₁|²) (N₁ ⊗ ∂|e|/∂x_k + |e| (I − 2 n̂₁n̂₁ᵀ) ∂N₁/∂x_k)` and likewise for `d`;
 //! `∂(∇_b θ)/∂x_k = −(∇_c θ ⊗ ∂s₁/∂x_k + s₁ ∂(∇_c θ)/∂x_k + (same for d))`; the `a` rows follow from
-//! translation invariance. The result is symmetric up to round-off; it is verified against central
-//! finite differences for random configurations, near flat, and for |θ| up to 3.
+//! translation invariance. Only the lower blocks are computed ([`angle_hessian_lower`]); the upper ones
+//! are their transposes, so the matrix is exactly symmetric. It is verified against central finite
+//! differences for random configurations, near flat, and for |θ| up to 3.
 
 use glam::{DMat3, DVec3};
 
@@ -74,8 +75,30 @@ pub fn angle_gradient(x: &[DVec3; 4]) -> (f64, [DVec3; 4]) {
     (theta, [ga, gb, gc, gd])
 }
 
-/// The angle, its gradient and its Hessian.
+/// The angle, its gradient and its Hessian (exactly symmetric: the upper blocks are the transposes
+/// of [`angle_hessian_lower`]'s).
 pub fn angle_hessian(x: &[DVec3; 4]) -> AngleDerivatives {
+    let (theta, grad, lower) = angle_hessian_lower(x);
+    let mut hess = [[DMat3::ZERO; 4]; 4];
+    for p in 0..4 {
+        for q in 0..=p {
+            hess[p][q] = lower[lower_index(p, q)];
+            hess[q][p] = lower[lower_index(p, q)].transpose();
+        }
+    }
+    AngleDerivatives { theta, grad, hess }
+}
+
+/// Position of block `(p, q)`, `p ≥ q`, in the row-wise packed lower triangle of a 4 × 4 block matrix.
+pub(crate) const fn lower_index(p: usize, q: usize) -> usize {
+    p * (p + 1) / 2 + q
+}
+
+/// The angle, its gradient and the ten lower blocks `∂²θ/∂x_p∂x_q` (`p ≥ q`, packed by
+/// [`lower_index`]), computing only what they need: rows `c` and `d` are the base blocks (`c` does not
+/// move `N₂` nor `d` move `N₁`, so `(d, c)` is zero), row `b` follows from them for columns `a, b`,
+/// and row `a` only for column `a`.
+pub(crate) fn angle_hessian_lower(x: &[DVec3; 4]) -> (f64, [DVec3; 4], [DMat3; 10]) {
     let [a, b, c, d] = *x;
     let e = b - a;
     let l2 = e.length_squared();
@@ -93,40 +116,35 @@ pub fn angle_hessian(x: &[DVec3; 4]) -> AngleDerivatives {
     let gb = -(gc * s1 + gd * s2);
     let ga = -(gb + gc + gd);
 
-    // ∂|e|/∂x_k, ∂N₁/∂x_k, ∂N₂/∂x_k for k = a, b, c, d.
-    let dl = [-eh, eh, DVec3::ZERO, DVec3::ZERO];
-    // ∂N/∂x_k = [v_k]×; these are the v_k.
-    let z = DVec3::ZERO;
-    let dn1 = [c - b, a - c, e, z];
-    let dn2 = [b - d, d - a, z, -e];
-    // ∂s/∂x_k for a wing point w: s = (w − a)·e/|e|².
+    // ∂s/∂x_k for a wing point w, s = (w − a)·e/|e|²: for k = a, b (and ∂s/∂w = e/|e|², unused here).
     let ds = |w: DVec3, s: f64| {
-        let (wa, inv) = (w - a, 1.0 / l2);
-        let db = (wa - e * (2.0 * s)) * inv;
-        let dw = e * inv;
-        [-(db + dw), db, dw]
+        let db = ((w - a) - e * (2.0 * s)) / l2;
+        [-(db + e / l2), db]
     };
-    let [ds1a, ds1b, ds1c] = ds(c, s1);
-    let [ds2a, ds2b, ds2d] = ds(d, s2);
-    let ds1 = [ds1a, ds1b, ds1c, DVec3::ZERO];
-    let ds2 = [ds2a, ds2b, DVec3::ZERO, ds2d];
-
-    let u1 = n1 / q1.sqrt();
-    let u2 = n2 / q2.sqrt();
+    let ds1 = ds(c, s1);
+    let ds2 = ds(d, s2);
+    let (u1, u2) = (n1 / q1.sqrt(), n2 / q2.sqrt());
+    let (m1, m2) = (n1 / q1, n2 / q2);
     // (I − 2ûûᵀ)[v]× = [v]× − 2û(û × v)ᵀ.
     let reflect_cross = |u: DVec3, v: DVec3| cross_matrix(v) - outer(u * 2.0, u.cross(v));
     let (r1, r2) = (l / q1, l / q2);
-    let mut hess = [[DMat3::ZERO; 4]; 4];
-    for k in 0..4 {
-        let hc = -(outer(n1 * (1.0 / q1), dl[k]) + reflect_cross(u1, dn1[k]) * r1);
-        let hd = -(outer(n2 * (1.0 / q2), dl[k]) + reflect_cross(u2, dn2[k]) * r2);
-        let hb = -(outer(gc, ds1[k]) + hc * s1 + outer(gd, ds2[k]) + hd * s2);
-        hess[0][k] = -(hb + hc + hd);
-        hess[1][k] = hb;
-        hess[2][k] = hc;
-        hess[3][k] = hd;
-    }
-    AngleDerivatives { theta, grad: [ga, gb, gc, gd], hess }
+    // ∂(∇_c θ)/∂x_k = −(N₁/|N₁|² ⊗ ∂|e|/∂x_k + |e|/|N₁|² (I − 2n̂₁n̂₁ᵀ) ∂N₁/∂x_k), with ∂|e|/∂x_a = −ê,
+    // ∂|e|/∂x_b = ê, ∂N₁/∂x_{a,b,c} = [c − b]×, [a − c]×, [e]×; likewise for d with N₂.
+    let hc = [
+        -(outer(m1, -eh) + reflect_cross(u1, c - b) * r1),
+        -(outer(m1, eh) + reflect_cross(u1, a - c) * r1),
+        -(reflect_cross(u1, e) * r1),
+    ];
+    let hd = [
+        -(outer(m2, -eh) + reflect_cross(u2, b - d) * r2),
+        -(outer(m2, eh) + reflect_cross(u2, d - a) * r2),
+        -(reflect_cross(u2, -e) * r2),
+    ];
+    let hb = |k: usize| -(outer(gc, ds1[k]) + hc[k] * s1 + outer(gd, ds2[k]) + hd[k] * s2);
+    let (hba, hbb) = (hb(0), hb(1));
+    let haa = -(hba + hc[0] + hd[0]);
+    let lower = [haa, hba, hbb, hc[0], hc[1], hc[2], hd[0], hd[1], DMat3::ZERO, hd[2]];
+    (theta, [ga, gb, gc, gd], lower)
 }
 
 /// `θ − θ̄` wrapped to `[−π, π)`, so a rest angle near ±π does not jump by 2π.

@@ -11,12 +11,12 @@
 //! [`DiscreteShell::element_hessians`] *visits* them interleaved, sorted by their smallest vertex, so
 //! consecutive elements touch neighbouring matrix columns and assembly stays in cache.
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 use nalgebra::SMatrix;
 
 use super::EnergyError;
-use super::hinge::{angle_gradient, angle_hessian, wrapped_difference};
-use super::stretch::{area_gradient, edge, put, triangle};
+use super::hinge::{angle_gradient, angle_hessian_lower, lower_index, outer, wrapped_difference};
+use super::stretch::{area_gradient, edge, triangle, unpack};
 use crate::mesh::TriMesh;
 
 /// The three stiffnesses of the shell energy.
@@ -258,80 +258,79 @@ impl DiscreteShell {
         w
     }
 
-    /// Compute every element's Hessian block (already multiplied by its stiffness) and hand it to
-    /// `sink(element, vertices, block)`, in element order; `block` is the flat column-major `3k × 3k`
-    /// matrix of an element of `k` vertices (symmetric up to round-off, so row-major reads the same).
-    /// Assemblers (see `crate::linalg`) scatter these into a sparse matrix.
-    pub fn element_hessians(&self, x: &[DVec3], mode: HessianMode, mut sink: impl FnMut(usize, &[usize], &[f64])) {
+    /// Compute every element's Hessian (already multiplied by its stiffness) and hand it to
+    /// `sink(element, vertices, lower)`, in element order, as its lower 3 × 3 blocks `(p, q)`, `p ≥ q`,
+    /// packed by [`lower_index`] (`k(k + 1)/2` blocks for `k` vertices; the upper blocks are their
+    /// transposes). Assemblers (see `crate::linalg`) scatter these into a sparse matrix.
+    pub fn element_hessians(&self, x: &[DVec3], mode: HessianMode, mut sink: impl FnMut(usize, &[usize], &[DMat3])) {
         self.check_len(x);
         let k = self.stiffness;
         let project = mode == HessianMode::Projected;
         let (nt, ne) = (self.tris.len(), self.edges.len());
-        let mut h9 = [0.0; 81];
-        let mut h12 = [0.0; 144];
         for &index in &self.visit {
             let index = index as usize;
             if index < nt {
                 let t = &self.tris[index];
                 let p = t.v.map(|i| x[i]);
-                let (_, _, h) = triangle(&p, t.rest_area);
-                h9.iter_mut().zip(&h).for_each(|(d, v)| *d = v * k.k_area);
+                let (_, _, mut h) = triangle(&p, t.rest_area);
+                h.iter_mut().for_each(|b| *b *= k.k_area);
                 if project {
-                    project_psd9(&mut h9);
+                    project_psd_triangle(&mut h);
                 }
-                sink(index, &t.v, &h9);
+                sink(index, &t.v, &h);
             } else if index < nt + ne {
                 let e = &self.edges[index - nt];
                 let (_, _, mut h) = edge(x[e.v[0]], x[e.v[1]], e.rest_length, project);
-                h.iter_mut().for_each(|v| *v *= k.k_length);
+                h.iter_mut().for_each(|b| *b *= k.k_length);
                 sink(index, &e.v, &h);
             } else {
                 let hg = &self.hinges[index - nt - ne];
                 let p = hg.v.map(|i| x[i]);
-                hinge_hessian(&p, hg.rest_angle, hg.weight * k.k_bend, &mut h12);
+                let mut h = hinge_hessian(&p, hg.rest_angle, hg.weight * k.k_bend);
                 if project {
-                    project_psd12(&mut h12);
+                    project_psd_hinge(&mut h);
                 }
-                sink(index, &hg.v, &h12);
+                sink(index, &hg.v, &h);
             }
         }
     }
 }
 
-/// Hessian of `weight (θ − θ̄)²`, `2 weight (∇θ ∇θᵀ + (θ − θ̄) ∇²θ)`, into a flat 12 × 12 block.
-fn hinge_hessian(p: &[DVec3; 4], rest: f64, weight: f64, out: &mut [f64; 144]) {
-    let d = angle_hessian(p);
-    let delta = wrapped_difference(d.theta, rest);
+/// Hessian of `weight (θ − θ̄)²`, `2 weight (∇θ ∇θᵀ + (θ − θ̄) ∇²θ)`, as its packed lower blocks.
+fn hinge_hessian(p: &[DVec3; 4], rest: f64, weight: f64) -> [DMat3; 10] {
+    let (theta, grad, mut lower) = angle_hessian_lower(p);
+    let delta = wrapped_difference(theta, rest);
     let s = 2.0 * weight;
     for a in 0..4 {
-        for b in a..4 {
-            // ∇²θ is symmetric up to round-off; average the two computed blocks so the result is exact.
-            let hab = if a == b { d.hess[a][b] } else { (d.hess[a][b] + d.hess[b][a].transpose()) * 0.5 };
-            let m = (super::hinge::outer(d.grad[a], d.grad[b]) + hab * delta) * s;
-            put(out, 12, a, b, m);
-            if a != b {
-                put(out, 12, b, a, m.transpose());
-            }
+        for b in 0..=a {
+            let m = &mut lower[lower_index(a, b)];
+            *m = outer(grad[a] * s, grad[b]) + *m * (s * delta);
         }
     }
+    lower
 }
 
-/// Clamp the negative eigenvalues of a small symmetric flat block to zero (one function per block
-/// size, since nalgebra's fixed-size eigen solver needs concrete dimensions).
+/// Clamp the negative eigenvalues of a `k`-point element's Hessian (`3k × 3k`, given by its packed
+/// lower blocks) to zero; one function per size, since nalgebra's fixed-size eigen solver needs
+/// concrete dimensions.
 macro_rules! project_psd_fn {
-    ($name:ident, $n:literal) => {
-        fn $name(h: &mut [f64; $n * $n]) {
-            let m = SMatrix::<f64, $n, $n>::from_column_slice(h);
-            let m = (m + m.transpose()) * 0.5;
+    ($name:ident, $k:literal, $n:literal) => {
+        fn $name(lower: &mut [DMat3]) {
+            let m = SMatrix::<f64, $n, $n>::from_column_slice(&unpack::<$k>(lower));
             let eig = m.symmetric_eigen();
             if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
                 return;
             }
             let clamped = eig.eigenvalues.map(|l| l.max(0.0));
             let r = eig.eigenvectors * SMatrix::<f64, $n, $n>::from_diagonal(&clamped) * eig.eigenvectors.transpose();
-            h.copy_from_slice(r.as_slice());
+            for p in 0..$k {
+                for q in 0..=p {
+                    lower[lower_index(p, q)] =
+                        DMat3::from_cols_array(&std::array::from_fn(|t| r[(3 * p + t % 3, 3 * q + t / 3)]));
+                }
+            }
         }
     };
 }
-project_psd_fn!(project_psd9, 9);
-project_psd_fn!(project_psd12, 12);
+project_psd_fn!(project_psd_triangle, 3, 9);
+project_psd_fn!(project_psd_hinge, 4, 12);

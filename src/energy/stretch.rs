@@ -4,19 +4,19 @@
 //! - Triangle area: `E = (A − Ā)²/Ā = (1 − A/Ā)² Ā` for current area `A` and rest area `Ā`.
 //!
 //! Both are unweighted (the stiffness multiplies them in [`super::shell`]). Hessians are returned as
-//! flat column-major dense blocks: `h[(3q + j)·3k + 3p + i] = ∂²E/∂x_{p,i}∂x_{q,j}` for `k` points
-//! (symmetric, so row-major reads the same).
+//! their lower 3 × 3 blocks `∂²E/∂x_p∂x_q` (`p ≥ q`), packed by [`lower_index`]; the upper blocks
+//! are their transposes.
 
 use glam::{DMat3, DVec3};
 
-use super::hinge::{cross_matrix, outer};
+use super::hinge::{cross_matrix, lower_index, outer};
 
-/// The edge term's value, gradient `[∂E/∂x₀, ∂E/∂x₁]` and Hessian (6 × 6, column-major).
+/// The edge term's value, gradient `[∂E/∂x₀, ∂E/∂x₁]` and Hessian (lower blocks `(0,0), (1,0), (1,1)`).
 ///
 /// Compressed edges (`|e| < L`) have a negative transverse stiffness `2(1 − L/|e|)/L`; with
 /// `project` it is clamped to zero, which is the exact PSD projection of this element (its other
 /// eigenvalue, along the edge, is `4/L > 0`).
-pub fn edge(x0: DVec3, x1: DVec3, rest: f64, project: bool) -> (f64, [DVec3; 2], [f64; 36]) {
+pub fn edge(x0: DVec3, x1: DVec3, rest: f64, project: bool) -> (f64, [DVec3; 2], [DMat3; 3]) {
     let e = x1 - x0;
     let l = e.length();
     let u = e / l;
@@ -28,11 +28,7 @@ pub fn edge(x0: DVec3, x1: DVec3, rest: f64, project: bool) -> (f64, [DVec3; 2],
         transverse = transverse.max(0.0);
     }
     let k = outer(u, u) * (2.0 / rest - transverse) + DMat3::IDENTITY * transverse;
-    let mut h = [0.0; 36];
-    for (p, q, s) in [(0, 0, 1.0), (0, 1, -1.0), (1, 0, -1.0), (1, 1, 1.0)] {
-        put(&mut h, 6, p, q, k * s);
-    }
-    (value, [-g, g], h)
+    (value, [-g, g], [k, -k, k])
 }
 
 /// The area of triangle `(p, q, r)` and its gradient.
@@ -45,8 +41,8 @@ pub fn area_gradient(x: &[DVec3; 3]) -> (f64, [DVec3; 3]) {
     (0.5 * len, [u.cross(r - q) * 0.5, u.cross(p - r) * 0.5, u.cross(q - p) * 0.5])
 }
 
-/// The triangle term's value, gradient and Hessian (9 × 9, column-major), for rest area `rest`.
-pub fn triangle(x: &[DVec3; 3], rest: f64) -> (f64, [DVec3; 3], [f64; 81]) {
+/// The triangle term's value, gradient and Hessian (the six lower blocks), for rest area `rest`.
+pub fn triangle(x: &[DVec3; 3], rest: f64) -> (f64, [DVec3; 3], [DMat3; 6]) {
     let [p, q, r] = *x;
     let n = (q - p).cross(r - p);
     let len = n.length();
@@ -63,7 +59,7 @@ pub fn triangle(x: &[DVec3; 3], rest: f64) -> (f64, [DVec3; 3], [f64; 81]) {
     let c = 0.5 / len;
     let un = cross_matrix(u) * 0.5;
     let s = 2.0 / rest;
-    let mut h = [0.0; 81];
+    let mut h = [DMat3::ZERO; 6];
     for k in 0..3 {
         for l in k..3 {
             let (a, b) = (v[k], v[l]);
@@ -74,22 +70,28 @@ pub fn triangle(x: &[DVec3; 3], rest: f64) -> (f64, [DVec3; 3], [f64; 81]) {
                 1 => -un,
                 _ => un,
             };
+            // Block (k, l), k ≤ l; the lower one (l, k) is its transpose.
             let block = (outer(ga[k], ga[l]) + (first + second) * diff) * s;
-            put(&mut h, 9, k, l, block);
-            if l != k {
-                put(&mut h, 9, l, k, block.transpose());
-            }
+            h[lower_index(l, k)] = block.transpose();
         }
     }
     (value, grad, h)
 }
 
-/// Write the 3 × 3 block `m` at block position `(p, q)` of a flat column-major `n × n` matrix.
-pub(crate) fn put(h: &mut [f64], n: usize, p: usize, q: usize, m: DMat3) {
-    for c in 0..3 {
-        let start = (3 * q + c) * n + 3 * p;
-        h[start..start + 3].copy_from_slice(&m.col(c).to_array());
+/// The dense `3k × 3k` column-major matrix of a `k`-point element from its packed lower blocks.
+pub(crate) fn unpack<const K: usize>(lower: &[DMat3]) -> Vec<f64> {
+    let n = 3 * K;
+    let mut h = vec![0.0; n * n];
+    for p in 0..K {
+        for q in 0..=p {
+            let m = lower[lower_index(p, q)];
+            for (r, c, v) in (0..9).map(|t| (t % 3, t / 3, m.col(t / 3)[t % 3])) {
+                h[(3 * q + c) * n + 3 * p + r] = v;
+                h[(3 * p + r) * n + 3 * q + c] = v;
+            }
+        }
     }
+    h
 }
 
 #[cfg(test)]
@@ -106,11 +108,12 @@ mod tests {
     /// Relative max-norm error of FD gradient (from values) and FD Hessian (from gradients).
     fn fd_check<const V: usize, const M: usize>(
         x: [DVec3; V],
-        f: impl Fn(&[DVec3; V]) -> (f64, [DVec3; V], [f64; M]),
+        f: impl Fn(&[DVec3; V]) -> (f64, [DVec3; V], [DMat3; M]),
     ) -> (f64, f64) {
         let n = 3 * V;
         let h = 1e-6;
-        let (_, g, hess) = f(&x);
+        let (_, g, lower) = f(&x);
+        let hess = unpack::<V>(&lower);
         let (mut ge, mut gr, mut he, mut hr) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         for p in 0..V {
             for i in 0..3 {
@@ -168,11 +171,11 @@ mod tests {
     #[test]
     fn projected_edge_hessian_is_positive_semidefinite() {
         let (_, _, h) = edge(DVec3::ZERO, DVec3::new(0.5, 0.0, 0.0), 1.0, true);
-        let m = nalgebra::SMatrix::<f64, 6, 6>::from_column_slice(&h);
+        let m = nalgebra::SMatrix::<f64, 6, 6>::from_column_slice(&unpack::<2>(&h));
         let ev = m.symmetric_eigenvalues();
         assert!(ev.iter().all(|&l| l > -1e-12), "{ev}");
         let (_, _, h) = edge(DVec3::ZERO, DVec3::new(0.5, 0.0, 0.0), 1.0, false);
-        let m = nalgebra::SMatrix::<f64, 6, 6>::from_column_slice(&h);
+        let m = nalgebra::SMatrix::<f64, 6, 6>::from_column_slice(&unpack::<2>(&h));
         assert!(m.symmetric_eigenvalues().iter().any(|&l| l < -0.1), "a compressed edge is indefinite");
     }
 }

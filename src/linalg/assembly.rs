@@ -5,32 +5,44 @@
 //! its three scalar columns share that row pattern, so the entry `(3i + r, 3j + c)` of block `(i, j)`
 //! sits at `base_j + c · 3|R_j| + 3·pos(i) + r`.
 //!
-//! Elements are first accumulated in a block-contiguous scratch array (block `(i, j)` column-major at
-//! `base_j + 9·pos(i)`: one or two cache lines per block instead of three), then each block column is
-//! transposed into faer's layout in one cache-friendly pass. Every element stores, for each of its `3k`
-//! local columns and each of its `k` vertices, the scratch offset of the three contiguous values it adds
-//! to — computed at construction — so numeric assembly is a sequential walk with no searching.
+//! The matrix is symmetric, so elements are accumulated only into its upper blocks (`i ≤ j`), in a
+//! block-contiguous scratch array (block `(i, j)` column-major at `ubase_j + 9·pos(i)`, where the
+//! upper rows `i ≤ j` are the first entries of the sorted `R_j`: one or two cache lines per block, half
+//! the matrix's size). A final pass writes every block column in faer's layout, reading a lower block
+//! `(i, j)`, `i > j`, as the transpose of `(j, i)`. Elements hand in their lower 3 × 3 blocks
+//! (`p ≥ q`, see [`crate::energy::DiscreteShell::element_hessians`]); each stores, per block, the
+//! scratch offset of the upper global block it adds to and whether to add it transposed — computed
+//! at construction — so numeric assembly is a sequential walk of 9-value additions with no searching.
 
 use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
 
 use super::{DofMap, LinalgError};
 use crate::energy::{DiscreteShell, HessianMode};
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
+/// Flag in [`BlockAssembler::sources`] and [`BlockAssembler::slots`]: the block goes transposed.
+const TRANSPOSED: u32 = 1 << 31;
+/// A slot of a block that touches a removed vertex.
 const SKIP: u32 = u32::MAX;
 
 /// A sparse symmetric block matrix with a fixed pattern and per-element value slots.
+///
+/// Elements must be symmetric (Hessians, mass matrices): they are given by their lower blocks.
 #[derive(Debug, Clone)]
 pub struct BlockAssembler {
     matrix: SparseColMat<usize, f64>,
-    /// Per element, in local column-major order `t = (3q + c)·k + p`: offset of rows `3p..3p+3` of
-    /// local column `3q + c` in the value array, or `SKIP`.
-    offsets: Vec<u32>,
+    /// Per element, per lower block `(p, q)` in packed order: the scratch offset of the upper global
+    /// block it adds to (with [`TRANSPOSED`] if the global block `(i, j)` has `i > j`), or [`SKIP`].
+    slots: Vec<u32>,
+    /// Per element, its first slot (and one past the last element's).
     element_start: Vec<usize>,
-    /// Block-contiguous accumulation buffer (same length as the values).
+    /// Block-contiguous accumulation buffer of the upper blocks.
     scratch: Vec<f64>,
     /// `(base_j, |R_j|)` of every block column.
     groups: Vec<(usize, usize)>,
+    /// Per stored block, in storage order: the scratch offset it is read from — its own for `i ≤ j`,
+    /// that of `(j, i)` with [`TRANSPOSED`] set for `i > j`.
+    sources: Vec<u32>,
     diagonal: Vec<usize>,
 }
 
@@ -54,19 +66,21 @@ impl BlockAssembler {
             }
         }
         let mut col_ptr = Vec::with_capacity(3 * m + 1);
-        let mut bases = Vec::with_capacity(m);
-        let mut nnz = 0usize;
+        let (mut bases, mut upper_bases) = (Vec::with_capacity(m), Vec::with_capacity(m));
+        let (mut nnz, mut upper) = (0usize, 0usize);
         col_ptr.push(0);
-        for r in &mut rows {
+        for (j, r) in rows.iter_mut().enumerate() {
             r.sort_unstable();
             r.dedup();
             bases.push(nnz);
+            upper_bases.push(upper);
+            upper += 9 * r.partition_point(|&i| i as usize <= j);
             for _ in 0..3 {
                 nnz += 3 * r.len();
                 col_ptr.push(nnz);
             }
         }
-        if nnz >= SKIP as usize {
+        if nnz >= TRANSPOSED as usize {
             return Err(LinalgError::TooLarge(nnz));
         }
         let mut row_idx = Vec::with_capacity(nnz);
@@ -80,28 +94,38 @@ impl BlockAssembler {
         };
         // Offset of entry (3i, 3j + c) in faer's layout, and in the block-contiguous scratch.
         let offset = |i: usize, j: usize, c: usize| -> usize { bases[j] + 3 * position(i, j) + c * 3 * rows[j].len() };
-        let scratch_offset = |i: usize, j: usize, c: usize| -> usize { bases[j] + 9 * position(i, j) + 3 * c };
-        let mut offsets = Vec::new();
+        // Offset of entry (3i, 3j + c), i ≤ j, in the scratch.
+        let scratch_offset = |i: usize, j: usize, c: usize| -> usize { upper_bases[j] + 9 * position(i, j) + 3 * c };
+        let mut slots = Vec::new();
         let mut element_start = Vec::with_capacity(stencils.len() + 1);
         for s in &stencils {
-            element_start.push(offsets.len());
-            for &vq in s.iter() {
-                for c in 0..3 {
-                    for &vp in s.iter() {
-                        offsets.push(match (dofs.block(vp), dofs.block(vq)) {
-                            (Some(i), Some(j)) => scratch_offset(i, j, c) as u32,
-                            _ => SKIP,
-                        });
-                    }
+            element_start.push(slots.len());
+            for (p, &vp) in s.iter().enumerate() {
+                for &vq in &s[..=p] {
+                    slots.push(match (dofs.block(vp), dofs.block(vq)) {
+                        (Some(i), Some(j)) if i <= j => scratch_offset(i, j, 0) as u32,
+                        (Some(i), Some(j)) => scratch_offset(j, i, 0) as u32 | TRANSPOSED,
+                        _ => SKIP,
+                    });
                 }
             }
         }
-        element_start.push(offsets.len());
+        element_start.push(slots.len());
         let diagonal = (0..m).flat_map(|j| (0..3).map(move |c| (j, c))).map(|(j, c)| offset(j, j, c) + c).collect();
         let symbolic = SymbolicSparseColMat::new_checked(3 * m, 3 * m, col_ptr, None, row_idx);
         let matrix = SparseColMat::new(symbolic, vec![0.0; nnz]);
         let groups = bases.iter().zip(&rows).map(|(&b, r)| (b, r.len())).collect();
-        Ok(Self { matrix, offsets, element_start, diagonal, scratch: vec![0.0; nnz], groups })
+        let sources = rows
+            .iter()
+            .enumerate()
+            .flat_map(|(j, r)| r.iter().map(move |&i| (i as usize, j)))
+            .map(
+                |(i, j)| {
+                    if i <= j { scratch_offset(i, j, 0) as u32 } else { scratch_offset(j, i, 0) as u32 | TRANSPOSED }
+                },
+            )
+            .collect();
+        Ok(Self { matrix, slots, element_start, diagonal, scratch: vec![0.0; upper], groups, sources })
     }
 
     /// The pattern of a shell's Hessian over `dofs`.
@@ -126,41 +150,48 @@ impl BlockAssembler {
         self.scratch.fill(0.0);
     }
 
-    /// Add an element's dense `3k × 3k` block (`k` = its stencil's vertex count) in column-major order
-    /// (for the symmetric blocks of a Hessian this is the same as row-major). Between
+    /// Add an element's Hessian, given by its lower 3 × 3 blocks `(p, q)`, `p ≥ q`, packed row-wise
+    /// (`p(p + 1)/2 + q`, for `k` stencil vertices `k(k + 1)/2` of them). Between
     /// [`BlockAssembler::begin`] and [`BlockAssembler::finish`].
-    pub fn add_element(&mut self, element: usize, block: &[f64]) -> Result<(), LinalgError> {
+    pub fn add_element(&mut self, element: usize, lower: &[DMat3]) -> Result<(), LinalgError> {
         let (Some(&start), Some(&end)) = (self.element_start.get(element), self.element_start.get(element + 1)) else {
-            return Err(LinalgError::BadBlock { element, len: block.len() });
+            return Err(LinalgError::BadBlock { element, len: lower.len() });
         };
-        if block.len() != 3 * (end - start) {
-            return Err(LinalgError::BadBlock { element, len: block.len() });
+        if lower.len() != end - start {
+            return Err(LinalgError::BadBlock { element, len: lower.len() });
         }
-        let vals = &mut self.scratch;
-        for (&off, src) in self.offsets[start..end].iter().zip(block.chunks_exact(3)) {
-            if off == SKIP {
+        for (&slot, block) in self.slots[start..end].iter().zip(lower) {
+            if slot == SKIP {
                 continue;
             }
-            let off = off as usize;
-            if let Some(dst) = vals.get_mut(off..off + 3) {
-                dst[0] += src[0];
-                dst[1] += src[1];
-                dst[2] += src[2];
+            let off = (slot & !TRANSPOSED) as usize;
+            let values = if slot & TRANSPOSED == 0 { *block } else { block.transpose() }.to_cols_array();
+            // A fixed-size view, so the nine additions unroll and vectorise.
+            if let Some(Ok(dst)) = self.scratch.get_mut(off..off + 9).map(<&mut [f64; 9]>::try_from) {
+                for k in 0..9 {
+                    dst[k] += values[k];
+                }
             }
         }
         Ok(())
     }
 
-    /// End an assembly: move the accumulated blocks into the matrix (overwriting its values).
+    /// End an assembly: move the accumulated blocks into the matrix (overwriting its values), the
+    /// lower ones as transposes of the upper.
     pub fn finish(&mut self) {
         let vals = self.matrix.val_mut();
         for &(base, n) in &self.groups {
-            let (src, dst) = (&self.scratch[base..base + 9 * n], &mut vals[base..base + 9 * n]);
-            for k in 0..n {
+            let dst = &mut vals[base..base + 9 * n];
+            for (k, &source) in self.sources[base / 9..base / 9 + n].iter().enumerate() {
+                let from = (source & !TRANSPOSED) as usize;
+                let src = &self.scratch[from..from + 9];
                 for c in 0..3 {
-                    let from = 9 * k + 3 * c;
                     let to = c * 3 * n + 3 * k;
-                    dst[to..to + 3].copy_from_slice(&src[from..from + 3]);
+                    if source & TRANSPOSED == 0 {
+                        dst[to..to + 3].copy_from_slice(&src[3 * c..3 * c + 3]);
+                    } else {
+                        dst[to..to + 3].copy_from_slice(&[src[c], src[3 + c], src[6 + c]]);
+                    }
                 }
             }
         }
@@ -185,6 +216,12 @@ impl BlockAssembler {
         for (&i, &v) in self.diagonal.iter().zip(d) {
             vals[i] += v;
         }
+    }
+
+    /// The diagonal entries of the current values, in DOF order.
+    pub fn diagonal(&self) -> Vec<f64> {
+        let vals = self.matrix.val();
+        self.diagonal.iter().map(|&i| vals[i]).collect()
     }
 
     /// Add `scale ×` values of another matrix with the same pattern (e.g. a stored rest stiffness).
@@ -257,12 +294,20 @@ mod tests {
         let mut a = BlockAssembler::new(&dofs, [&[0usize, 1][..], &[1, 2][..]]).unwrap();
         assert_eq!(a.dim(), 6);
         assert_eq!(a.nnz(), 36);
-        let block: Vec<f64> = (0..36).map(|i| i as f64).collect();
+        // A symmetric element block (entry (i, j) = ij + i + j, plus 7 on the diagonal).
+        let block: Vec<f64> =
+            (0..36).map(|t| ((t % 6) * (t / 6) + t % 6 + t / 6) as f64 + if t % 7 == 0 { 7.0 } else { 0.0 }).collect();
+        // Its lower blocks (0, 0), (1, 0), (1, 1), column-major.
+        let lower: Vec<DMat3> = [(0, 0), (1, 0), (1, 1)]
+            .iter()
+            .map(|&(p, q)| DMat3::from_cols_array(&std::array::from_fn(|t| block[(3 * q + t / 3) * 6 + 3 * p + t % 3])))
+            .collect();
         a.begin();
-        a.add_element(0, &block).unwrap();
-        a.add_element(1, &block).unwrap();
+        a.add_element(0, &lower).unwrap();
+        a.add_element(1, &lower).unwrap();
         a.finish();
         let d = a.to_dense();
+        assert!((0..6).all(|i| (0..6).all(|j| d[i][j] == d[j][i])), "exactly symmetric");
         for i in 0..6 {
             for j in 0..6 {
                 // Element 1 maps its vertex 1 (local 0) to block 1 and drops local vertex 1.
@@ -271,11 +316,14 @@ mod tests {
                 assert_eq!(d[i][j], block[j * 6 + i] + extra, "entry ({i}, {j})");
             }
         }
+        let before = a.diagonal();
+        assert!((0..6).all(|i| before[i] == d[i][i]), "diagonal() reads the diagonal");
         a.add_diagonal(&[1.0; 6]);
+        assert!(a.diagonal().iter().zip(&before).all(|(d, b)| *d == b + 1.0));
         assert_eq!(a.to_dense()[4][4], block[4 * 6 + 4] + block[7] + 1.0);
         assert_eq!(a.to_dense()[3][4], block[4 * 6 + 3] + block[6]);
-        assert!(a.add_element(0, &block[..9]).is_err());
-        assert!(a.add_element(5, &block).is_err());
+        assert!(a.add_element(0, &lower[..2]).is_err());
+        assert!(a.add_element(5, &lower).is_err());
         assert!(BlockAssembler::new(&dofs, [&[0usize, 7][..]]).is_err());
         let v = [1.0, 0.0, 0.0, 0.0, 0.0, 2.0];
         let mut out = [0.0; 6];

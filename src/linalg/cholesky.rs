@@ -61,11 +61,6 @@ impl SparseCholesky {
         Ok(Self { values: vec![0.0; symbolic.len_val()], symbolic, factored: false })
     }
 
-    /// Number of stored entries of the factor `L` (a measure of fill and of solve cost).
-    pub fn factor_entries(&self) -> usize {
-        self.symbolic.len_val()
-    }
-
     /// Factorise `matrix` (same pattern as at construction). Fails if it is not positive definite.
     pub fn factor(&mut self, matrix: SparseColMatRef<'_, usize, f64>) -> Result<(), LinalgError> {
         self.factored = false;
@@ -124,14 +119,8 @@ mod tests {
     fn solves_a_small_spd_system_and_refuses_an_indefinite_one() {
         let dofs = DofMap::all(2);
         let mut a = BlockAssembler::new(&dofs, [&[0usize, 1][..]]).unwrap();
-        let mut block = vec![0.0; 36];
-        for i in 0..6 {
-            block[i * 6 + i] = 4.0;
-            if i < 3 {
-                block[i * 6 + i + 3] = 1.0;
-                block[(i + 3) * 6 + i] = 1.0;
-            }
-        }
+        // Lower blocks (0, 0), (1, 0), (1, 1) of [[4I, I], [I, 4I]].
+        let block = [glam::DMat3::IDENTITY * 4.0, glam::DMat3::IDENTITY, glam::DMat3::IDENTITY * 4.0];
         a.begin();
         a.add_element(0, &block).unwrap();
         a.finish();

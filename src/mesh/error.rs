@@ -29,6 +29,12 @@ pub enum MeshError {
         /// Number of vertices in the mesh.
         vertex_count: usize,
     },
+    /// Coordinates so large that lengths and areas overflow (e.g. a huge scale).
+    #[error("vertex coordinates reach {largest:.3e}: too large, lengths and areas overflow")]
+    Overflow {
+        /// The largest absolute coordinate.
+        largest: f64,
+    },
     /// A triangle has (near) zero area or repeats a vertex.
     #[error("triangle {triangle} is degenerate (area {area:.3e})")]
     DegenerateTriangle {
@@ -54,6 +60,15 @@ pub enum MeshError {
         a: usize,
         /// Second vertex of the edge.
         b: usize,
+    },
+    /// Two triangles on the same three vertices with opposite windings (a zero-volume "pillow"):
+    /// the hinges between them have coinciding opposite vertices.
+    #[error("triangles {first} and {second} join the same three vertices (a doubled sheet)")]
+    DuplicateTriangle {
+        /// Index of the first triangle.
+        first: usize,
+        /// Index of the second.
+        second: usize,
     },
     /// A vertex is used by no triangle.
     #[error("vertex {vertex} is not used by any triangle")]

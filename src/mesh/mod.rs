@@ -8,6 +8,6 @@ mod trimesh;
 
 pub use error::MeshError;
 pub use topology::{Edge, Hinge, Topology};
-pub use trimesh::{TriMesh, vertex_normals};
+pub use trimesh::TriMesh;
 pub mod generate;
 pub mod obj;

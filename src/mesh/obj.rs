@@ -1,4 +1,7 @@
-//! Wavefront OBJ in and out: reading through `tobj`, writing with our own exact, atomic writer.
+//! Wavefront OBJ in and out: a small reader that keeps the file's vertex order, and an exact,
+//! atomic writer.
+
+mod parse;
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -10,39 +13,22 @@ use super::{MeshError, TriMesh};
 
 /// Read a triangle mesh from an OBJ file.
 ///
-/// Polygons are fan-triangulated; points and lines are ignored; all objects and groups are merged into
-/// one mesh (a vertex shared between two objects becomes two vertices, as `tobj` exports each object
-/// separately). Vertices are numbered in order of **first use by a face** (tobj's single-index
-/// layout) and unused `v` lines are dropped, so a file from [`save_obj`] loads back with exactly the
-/// same indices whenever the saved vertices were already in first-use order (see [`first_use_order`]).
-/// Coordinates are read as `f64`, so values written by [`save_obj`] come back bit for bit.
+/// Vertex `i` of the mesh is the file's `i`-th `v` line, so anchors and loads given by index hit the
+/// vertices they name, and a file from [`save_obj`] loads back identical. Polygons are
+/// fan-triangulated; all objects and groups share the file's one vertex list; texture coordinates,
+/// normals, points, lines and materials are ignored. Coordinates are read as `f64`, so values
+/// written by [`save_obj`] come back bit for bit.
 ///
-/// Errors: [`MeshError::Io`] naming the path ("file not found", or the parser's message such as
-/// "position parse error" or "face vertex index out of bounds"); otherwise whatever
-/// [`TriMesh::new`] reports for invalid geometry (e.g. [`MeshError::NonManifoldEdge`]).
+/// Errors: [`MeshError::Io`] naming the path ("file not found", "cannot read: ...", or
+/// "line N: ..." for malformed statements); otherwise whatever [`TriMesh::new`] reports for invalid
+/// geometry, e.g. [`MeshError::UnreferencedVertex`] for a `v` no face uses.
 pub fn load_obj(path: &Path) -> Result<TriMesh, MeshError> {
     let io = |reason: String| MeshError::Io { path: path.to_path_buf(), reason };
-    let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
-    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| match e {
-        tobj::LoadError::OpenFileFailed => match std::fs::metadata(path) {
-            Err(err) if err.kind() == std::io::ErrorKind::NotFound => io("file not found".into()),
-            Err(err) => io(format!("cannot open file: {err}")),
-            Ok(_) => io("cannot open file".into()),
-        },
-        other => io(format!("invalid OBJ: {other}")),
+    let bytes = std::fs::read(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => io("file not found".into()),
+        _ => io(format!("cannot read: {e}")),
     })?;
-    let mut positions = Vec::new();
-    let mut triangles = Vec::new();
-    for model in &models {
-        let mesh = &model.mesh;
-        let offset = positions.len();
-        positions.extend(mesh.positions.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])));
-        let faces = mesh.indices.chunks_exact(3);
-        if !faces.remainder().is_empty() {
-            return Err(io(format!("object `{}` has an incomplete triangle", model.name)));
-        }
-        triangles.extend(faces.map(|t| [0, 1, 2].map(|k| offset + t[k] as usize)));
-    }
+    let (positions, triangles) = parse::parse(&String::from_utf8_lossy(&bytes)).map_err(io)?;
     TriMesh::new(positions, triangles)
 }
 
@@ -95,20 +81,6 @@ fn write_and_sync(tmp: &Path, positions: &[DVec3], triangles: &[[usize; 3]]) -> 
     file.sync_all()
 }
 
-/// The vertex order [`load_obj`] produces for a file written from `triangles`: `order[new] = old`,
-/// vertices listed by first appearance in the triangle list (unused vertices are left out).
-pub fn first_use_order(vertex_count: usize, triangles: &[[usize; 3]]) -> Vec<usize> {
-    let mut seen = vec![false; vertex_count];
-    let mut order = Vec::with_capacity(vertex_count);
-    for &v in triangles.iter().flatten() {
-        if v < vertex_count && !seen[v] {
-            seen[v] = true;
-            order.push(v);
-        }
-    }
-    order
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -139,28 +111,34 @@ mod tests {
             .unwrap();
         save_obj(&path, m.positions(), m.triangles()).unwrap();
         let back = load_obj(&path).unwrap();
-        // load_obj numbers vertices by first use; map back and compare bit for bit.
-        let order = first_use_order(m.vertex_count(), m.triangles());
-        assert_eq!(order.len(), m.vertex_count());
-        let mut new_of = vec![0; m.vertex_count()];
-        order.iter().enumerate().for_each(|(new, &old)| new_of[old] = new);
-        for (new, &old) in order.iter().enumerate() {
-            assert_eq!(
-                back.positions()[new].to_array().map(f64::to_bits),
-                m.positions()[old].to_array().map(f64::to_bits)
-            );
+        // Same vertex order, same triangles, every coordinate bit for bit.
+        assert_eq!(back.triangles(), m.triangles());
+        for (a, b) in back.positions().iter().zip(m.positions()) {
+            assert_eq!(a.to_array().map(f64::to_bits), b.to_array().map(f64::to_bits));
         }
-        let remapped: Vec<[usize; 3]> = m.triangles().iter().map(|t| t.map(|v| new_of[v])).collect();
-        assert_eq!(back.triangles(), &remapped[..]);
-        // A mesh already in first-use order round-trips literally.
-        let reordered = TriMesh::new(back.positions().to_vec(), back.triangles().to_vec()).unwrap();
-        save_obj(&path, reordered.positions(), reordered.triangles()).unwrap();
-        assert_eq!(load_obj(&path).unwrap(), reordered);
+        assert_eq!(back, m);
         // No temporary left behind; saving again overwrites.
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
         let sheet = delaunay_sheet([1.0, 0.5], 0.2).unwrap();
         save_obj(&path, sheet.positions(), sheet.triangles()).unwrap();
         assert_eq!(load_obj(&path).unwrap().triangles().len(), sheet.triangles().len());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn vertex_order_is_the_files_even_when_faces_use_vertices_out_of_order() {
+        let dir = scratch("order");
+        // Faces use vertex 4 first; vertex i must still be the i-th `v` line.
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 4 1 3\nf 3 1 2\n";
+        let m = load_obj(&write(&dir, "order.obj", text)).unwrap();
+        assert_eq!(m.positions(), &[DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y]);
+        assert_eq!(m.triangles(), &[[3, 0, 2], [2, 0, 1]]);
+        // A `v` no face uses is reported, not silently dropped.
+        let unused = "v 0 0 0\nv 9 9 9\nv 1 0 0\nv 0 1 0\nf 1 3 4\n";
+        assert_eq!(load_obj(&write(&dir, "unused.obj", unused)), Err(MeshError::UnreferencedVertex { vertex: 1 }));
+        // A vertex shared by two objects stays one vertex.
+        let shared = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\no a\nf 1 2 3\no b\nf 1 3 4\n";
+        assert_eq!(load_obj(&write(&dir, "shared.obj", shared)).unwrap().vertex_count(), 4);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -194,9 +172,9 @@ mod tests {
     fn malformed_files_give_clear_errors() {
         let dir = scratch("malformed");
         let cases = [
-            ("garbage.obj", "v 0 0 0\nv 1 banana 0\nv 0 1 0\nf 1 2 3\n", "position parse error"),
-            ("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", "out of bounds"),
-            ("face.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 two 3\n", "face parse error"),
+            ("garbage.obj", "v 0 0 0\nv 1 banana 0\nv 0 1 0\nf 1 2 3\n", "line 2: vertex coordinate `banana`"),
+            ("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", "line 4: face refers to vertex 7"),
+            ("face.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 two 3\n", "line 4: face vertex `two`"),
         ];
         for (name, text, expect) in cases {
             let path = write(&dir, name, text);
@@ -221,6 +199,11 @@ mod tests {
         assert_eq!(load_obj(&write(&dir, "fan.obj", text)), Err(MeshError::NonManifoldEdge { a: 0, b: 1, count: 3 }));
         let degenerate = "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n";
         assert!(matches!(load_obj(&write(&dir, "flat.obj", degenerate)), Err(MeshError::DegenerateTriangle { .. })));
+        let pillow = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 3 2\n";
+        assert_eq!(
+            load_obj(&write(&dir, "pillow.obj", pillow)),
+            Err(MeshError::DuplicateTriangle { first: 0, second: 1 })
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -253,10 +236,5 @@ mod tests {
         ));
         assert!(!dir.join("x.obj").exists());
         std::fs::remove_dir_all(&dir).unwrap();
-    }
-
-    #[test]
-    fn first_use_order_lists_vertices_by_appearance() {
-        assert_eq!(first_use_order(5, &[[3, 1, 4], [1, 0, 3]]), vec![3, 1, 4, 0]);
     }
 }

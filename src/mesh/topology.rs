@@ -44,8 +44,15 @@ pub struct Topology {
 }
 
 impl Topology {
-    /// Build the topology and check that the mesh is an oriented 2-manifold (with boundary).
-    pub fn build(vertex_count: usize, triangles: &[[usize; 3]]) -> Result<Self, MeshError> {
+    /// Build the topology and check that the mesh is an oriented 2-manifold (with boundary) without
+    /// doubled triangles.
+    ///
+    /// Precondition (checked by [`super::TriMesh::new`], its only caller): every index is below
+    /// `vertex_count`. A triangle that repeats a vertex is reported as degenerate.
+    pub(crate) fn build(vertex_count: usize, triangles: &[[usize; 3]]) -> Result<Self, MeshError> {
+        if let Some(triangle) = triangles.iter().position(|t| t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
+            return Err(MeshError::DegenerateTriangle { triangle, area: 0.0 });
+        }
         // Directed half-edge (a, b) → triangle. Two triangles on the same directed edge means either a
         // non-manifold edge or inconsistent winding; we tell which by counting the undirected uses.
         let mut undirected: HashMap<(usize, usize), usize> = HashMap::with_capacity(triangles.len() * 2);
@@ -82,7 +89,6 @@ impl Topology {
                 edges.push(Edge { v: [a, b], faces: [ti, other.unwrap_or(ti)], interior: other.is_some() });
             }
         }
-        let opposite = |t: &[usize; 3], a: usize, b: usize| t.iter().copied().find(|&x| x != a && x != b);
         let mut hinges = Vec::new();
         let mut boundary_edges = Vec::new();
         for (ei, e) in edges.iter().enumerate() {
@@ -91,10 +97,15 @@ impl Topology {
                 continue;
             }
             let [a, b] = e.v;
-            let (Some(c), Some(d)) = (opposite(&triangles[e.faces[0]], a, b), opposite(&triangles[e.faces[1]], a, b))
-            else {
-                unreachable!("validated triangles have three distinct vertices");
-            };
+            // Each face has three distinct vertices, two of them a and b: the third is the opposite one.
+            let opposite = |f: usize| triangles[f].into_iter().filter(|&x| x != a && x != b).sum::<usize>();
+            let (c, d) = (opposite(e.faces[0]), opposite(e.faces[1]));
+            if c == d {
+                return Err(MeshError::DuplicateTriangle {
+                    first: e.faces[0].min(e.faces[1]),
+                    second: e.faces[0].max(e.faces[1]),
+                });
+            }
             hinges.push(Hinge { edge: ei, v: [a, b, c, d], faces: e.faces });
         }
         let mut valence = vec![0; vertex_count];
@@ -172,6 +183,16 @@ mod tests {
     fn flipped_neighbour_is_inconsistent() {
         let tris = vec![[0, 1, 2], [0, 1, 3]];
         assert_eq!(Topology::build(4, &tris), Err(MeshError::InconsistentOrientation { a: 0, b: 1 }));
+    }
+
+    #[test]
+    fn repeated_vertex_and_doubled_triangle_are_errors() {
+        assert_eq!(Topology::build(2, &[[0, 0, 1]]), Err(MeshError::DegenerateTriangle { triangle: 0, area: 0.0 }));
+        // A pillow: every edge is a hinge whose two opposite vertices coincide.
+        assert_eq!(
+            Topology::build(6, &[[0, 1, 2], [3, 4, 5], [3, 5, 4]]),
+            Err(MeshError::DuplicateTriangle { first: 1, second: 2 })
+        );
     }
 
     #[test]

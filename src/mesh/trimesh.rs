@@ -20,9 +20,9 @@ const DEGENERATE_RELATIVE_AREA: f64 = 1e-14;
 impl TriMesh {
     /// Validate positions and triangles and build the topology.
     ///
-    /// Errors (checked in this order): empty mesh, non-finite coordinate, out-of-range index,
-    /// degenerate triangle (repeated vertex or near-zero area), unreferenced vertex,
-    /// non-manifold edge, inconsistent orientation.
+    /// Errors (checked in this order): empty mesh, non-finite coordinate, coordinates so large that
+    /// lengths overflow, out-of-range index, degenerate triangle (repeated vertex or near-zero area),
+    /// unreferenced vertex, non-manifold edge, inconsistent orientation, duplicate triangle.
     pub fn new(positions: Vec<DVec3>, triangles: Vec<[usize; 3]>) -> Result<Self, MeshError> {
         if positions.is_empty() || triangles.is_empty() {
             return Err(MeshError::Empty { vertices: positions.len(), triangles: triangles.len() });
@@ -30,13 +30,16 @@ impl TriMesh {
         if let Some(vertex) = positions.iter().position(|p| !p.is_finite()) {
             return Err(MeshError::NonFinite { vertex });
         }
+        let (lo, hi) = bounds(&positions);
+        if !(hi - lo).length_squared().is_finite() {
+            return Err(MeshError::Overflow { largest: lo.abs().max(hi.abs()).max_element() });
+        }
         let n = positions.len();
         for (triangle, t) in triangles.iter().enumerate() {
             if let Some(&index) = t.iter().find(|&&i| i >= n) {
                 return Err(MeshError::IndexOutOfRange { triangle, index, vertex_count: n });
             }
         }
-        let (lo, hi) = bounds(&positions);
         let min_area = DEGENERATE_RELATIVE_AREA * (hi - lo).length_squared();
         for (triangle, t) in triangles.iter().enumerate() {
             let area = area_of(&positions, t);
@@ -120,18 +123,6 @@ fn area_of(p: &[DVec3], t: &[usize; 3]) -> f64 {
     0.5 * (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).length()
 }
 
-/// Area-weighted smooth vertex normals of `positions` over `triangles` (unit length; zero where undefined).
-pub fn vertex_normals(positions: &[DVec3], triangles: &[[usize; 3]]) -> Vec<DVec3> {
-    let mut n = vec![DVec3::ZERO; positions.len()];
-    for t in triangles {
-        // The unnormalised face normal has length 2·area: an area weighting for free.
-        let f = (positions[t[1]] - positions[t[0]]).cross(positions[t[2]] - positions[t[0]]);
-        t.iter().for_each(|&i| n[i] += f);
-    }
-    n.iter_mut().for_each(|v| *v = v.normalize_or_zero());
-    n
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -142,15 +133,12 @@ mod tests {
     const SQ: [[usize; 3]; 2] = [[0, 1, 2], [0, 2, 3]];
 
     #[test]
-    fn valid_square_areas_and_normals() {
+    fn valid_square_areas_and_bounds() {
         let m = TriMesh::new(square(0.0), SQ.to_vec()).unwrap();
         assert_eq!(m.triangle_areas(), vec![0.5, 0.5]);
         let va = m.vertex_areas();
         assert!((va.iter().sum::<f64>() - 1.0).abs() < 1e-15);
         assert!((va[0] - 1.0 / 3.0).abs() < 1e-15 && (va[1] - 1.0 / 6.0).abs() < 1e-15);
-        for n in vertex_normals(m.positions(), m.triangles()) {
-            assert!((n - DVec3::Z).length() < 1e-15);
-        }
         assert_eq!(m.bounding_box(), (DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0)));
     }
 
@@ -160,6 +148,8 @@ mod tests {
         let mut nan = square(0.0);
         nan[2].y = f64::NAN;
         assert_eq!(TriMesh::new(nan, SQ.to_vec()), Err(MeshError::NonFinite { vertex: 2 }));
+        let huge: Vec<DVec3> = square(0.0).into_iter().map(|p| p * 1e300).collect();
+        assert_eq!(TriMesh::new(huge, SQ.to_vec()), Err(MeshError::Overflow { largest: 1e300 }));
         assert_eq!(
             TriMesh::new(square(0.0), vec![[0, 1, 2], [0, 2, 7]]),
             Err(MeshError::IndexOutOfRange { triangle: 1, index: 7, vertex_count: 4 })
@@ -181,6 +171,15 @@ mod tests {
             TriMesh::new(five, vec![[0, 1, 2], [1, 0, 4], [0, 1, 5], [0, 2, 3]]),
             Err(MeshError::NonManifoldEdge { a: 0, b: 1, count: 3 })
         ));
+        assert_eq!(
+            TriMesh::new(square(0.0), vec![[0, 1, 2], [0, 3, 2]]),
+            Err(MeshError::InconsistentOrientation { a: 0, b: 2 })
+        );
+        // A "pillow": the same triangle twice, with opposite windings.
+        assert_eq!(
+            TriMesh::new(square(0.0)[..3].to_vec(), vec![[0, 1, 2], [0, 2, 1]]),
+            Err(MeshError::DuplicateTriangle { first: 0, second: 1 })
+        );
     }
 
     #[test]

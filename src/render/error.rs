@@ -45,7 +45,7 @@ pub enum RenderError {
     Gpu {
         /// What the renderer was doing.
         context: &'static str,
-        /// wgpu's message.
+        /// wgpu's message on one line, down to the root cause.
         message: String,
     },
     /// Reading back a rendered image failed.
@@ -71,4 +71,29 @@ pub enum RenderError {
         /// What went wrong.
         reason: String,
     },
+}
+
+impl RenderError {
+    /// A wgpu error as one line: wgpu's multi-line report ("Caused by: ...") flattened into its chain of
+    /// causes, outermost first, ending with the root cause.
+    pub(crate) fn gpu(context: &'static str, error: &wgpu::Error) -> Self {
+        let flat = |s: String| s.split_whitespace().collect::<Vec<_>>().join(" ");
+        let mut parts: Vec<String> = Vec::new();
+        if matches!(error, wgpu::Error::OutOfMemory { .. }) {
+            parts.push("out of memory".into());
+        }
+        let mut cause = std::error::Error::source(error);
+        while let Some(c) = cause {
+            let part = flat(c.to_string());
+            // Some causes repeat their own source in their message: keep each piece once.
+            if !part.is_empty() && !parts.iter().any(|p| p.contains(&part)) {
+                parts.push(part);
+            }
+            cause = c.source();
+        }
+        if parts.is_empty() {
+            parts.push(flat(error.to_string()));
+        }
+        Self::Gpu { context, message: parts.join(": ") }
+    }
 }

@@ -100,11 +100,6 @@ impl MeshDraw {
         self.wireframe = Some(color);
         self
     }
-
-    /// Recompute `normals` from the current `positions` (call after moving vertices).
-    pub fn recompute_normals(&mut self) {
-        self.normals = smooth_normals(&self.positions, &self.triangles);
-    }
 }
 
 /// Smooth vertex normals: the sum of the (area-weighted) face normals around each vertex, normalised.

@@ -50,9 +50,36 @@ impl Gpu {
         self.adapter.get_info().name
     }
 
-    /// Full adapter information (name, backend, driver, device type).
-    pub fn adapter_info(&self) -> wgpu::AdapterInfo {
-        self.adapter.get_info()
+    /// Run `f` inside out-of-memory and validation error scopes, so that wgpu errors it causes come
+    /// back as one-line [`RenderError::Gpu`]s instead of panicking in wgpu's uncaptured-error handler.
+    pub(crate) fn scoped<T>(
+        &self,
+        context: &'static str,
+        f: impl FnOnce() -> Result<T, RenderError>,
+    ) -> Result<T, RenderError> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let result = f();
+        // Innermost scope first; an unpopped scope is popped when its guard drops.
+        for scope in [validation, oom] {
+            if let Some(err) = pollster::block_on(scope.pop()) {
+                return Err(RenderError::gpu(context, &err));
+            }
+        }
+        result
+    }
+
+    /// Refuse empty render targets and ones larger than the device allows.
+    pub(crate) fn check_size(&self, (width, height): (u32, u32)) -> Result<(), RenderError> {
+        let max = self.device.limits().max_texture_dimension_2d;
+        let reason = if width == 0 || height == 0 {
+            "width and height must be positive".to_string()
+        } else if width > max || height > max {
+            format!("this GPU allows at most {max} pixels per side")
+        } else {
+            return Ok(());
+        };
+        Err(RenderError::BadSize { width, height, reason })
     }
 
     /// Whether textures of `format` can be rendered with `count` samples per pixel on this device.

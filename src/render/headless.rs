@@ -29,7 +29,12 @@ struct Offscreen {
 }
 
 impl Offscreen {
-    fn new(gpu: &Gpu, format: wgpu::TextureFormat, (width, height): (u32, u32)) -> Self {
+    fn new(gpu: &Gpu, format: wgpu::TextureFormat, (width, height): (u32, u32)) -> Result<Self, RenderError> {
+        gpu.check_size((width, height))?;
+        gpu.scoped("creating the offscreen target", || Ok(Self::create(gpu, format, (width, height))))
+    }
+
+    fn create(gpu: &Gpu, format: wgpu::TextureFormat, (width, height): (u32, u32)) -> Self {
         let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("shellwarp offscreen"),
             size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
@@ -58,12 +63,14 @@ impl Offscreen {
 /// Read an 8-bit RGBA or BGRA texture (with `COPY_SRC` usage) back into an image: a window's surface
 /// texture for screenshots, or an offscreen target.
 pub fn read_texture(gpu: &Gpu, texture: &wgpu::Texture) -> Result<RgbaImage, RenderError> {
-    let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("shellwarp readback"),
-        size: u64::from(padded_bytes_per_row(texture.width())) * u64::from(texture.height()),
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
+    let readback = gpu.scoped("creating the readback buffer", || {
+        Ok(gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("shellwarp readback"),
+            size: u64::from(padded_bytes_per_row(texture.width())) * u64::from(texture.height()),
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        }))
+    })?;
     read_texture_with(gpu, texture, &readback)
 }
 
@@ -72,26 +79,29 @@ fn read_texture_with(gpu: &Gpu, texture: &wgpu::Texture, readback: &wgpu::Buffer
     let bgra = readback_layout(texture.format())?;
     let (width, height) = (texture.width(), texture.height());
     let padded = padded_bytes_per_row(width);
-    let mut encoder =
-        gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shellwarp readback") });
-    encoder.copy_texture_to_buffer(
-        wgpu::TexelCopyTextureInfo {
-            texture,
-            mip_level: 0,
-            origin: wgpu::Origin3d::ZERO,
-            aspect: wgpu::TextureAspect::All,
-        },
-        wgpu::TexelCopyBufferInfo {
-            buffer: readback,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(padded),
-                rows_per_image: Some(height),
+    gpu.scoped("reading back the image", || {
+        let mut encoder =
+            gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shellwarp readback") });
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
             },
-        },
-        wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-    );
-    gpu.queue.submit([encoder.finish()]);
+            wgpu::TexelCopyBufferInfo {
+                buffer: readback,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded),
+                    rows_per_image: Some(height),
+                },
+            },
+            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        );
+        gpu.queue.submit([encoder.finish()]);
+        Ok(())
+    })?;
 
     let slice = readback.slice(..);
     let (sender, receiver) = mpsc::channel();
@@ -146,10 +156,7 @@ pub fn render_to_image(
     height: u32,
 ) -> Result<RgbaImage, RenderError> {
     readback_layout(renderer.color_format())?;
-    if width == 0 || height == 0 {
-        return Err(RenderError::BadSize { width, height, reason: "width and height must be positive".into() });
-    }
-    let offscreen = Offscreen::new(gpu, renderer.color_format(), (width, height));
+    let offscreen = Offscreen::new(gpu, renderer.color_format(), (width, height))?;
     renderer.render(gpu, frame, &offscreen.view, (width, height))?;
     offscreen.read(gpu)
 }
@@ -164,7 +171,8 @@ pub struct Headless {
 }
 
 impl Headless {
-    /// Open a headless GPU ([`Gpu::new_headless`]) and a 4× MSAA renderer (if supported) for `width`×`height`.
+    /// Open a headless GPU ([`Gpu::new_headless`]) and a 4× MSAA renderer (if supported) for `width`×`height`
+    /// (refused with [`RenderError::BadSize`] if the GPU cannot make textures that large).
     pub fn new(width: u32, height: u32) -> Result<Self, RenderError> {
         let gpu = Gpu::new_headless()?;
         let renderer = Renderer::new(&gpu, HEADLESS_FORMAT, 4)?;
@@ -175,9 +183,7 @@ impl Headless {
 
     /// Change the output size (the offscreen texture is recreated on the next render).
     pub fn resize(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
-        if width == 0 || height == 0 {
-            return Err(RenderError::BadSize { width, height, reason: "width and height must be positive".into() });
-        }
+        self.gpu.check_size((width, height))?;
         if self.size != (width, height) {
             self.size = (width, height);
             self.offscreen = None;
@@ -205,12 +211,13 @@ impl Headless {
         readback_layout(self.renderer.color_format())?;
         let offscreen = match self.offscreen.take() {
             Some(o) if o.size == self.size => o,
-            _ => Offscreen::new(&self.gpu, self.renderer.color_format(), self.size),
+            _ => Offscreen::new(&self.gpu, self.renderer.color_format(), self.size)?,
         };
         self.renderer.render(&self.gpu, frame, &offscreen.view, self.size)?;
-        let image = offscreen.read(&self.gpu);
+        let image = offscreen.read(&self.gpu)?;
+        // Kept only after a successful render: a target that failed is made afresh next time.
         self.offscreen = Some(offscreen);
-        image
+        Ok(image)
     }
 }
 

@@ -58,22 +58,21 @@ impl Renderer {
             1
         };
         let device = &gpu.device;
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipelines = Pipelines::new(device, color_format, sample_count);
-        let globals = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("shellwarp globals"),
-            size: size_of::<Globals>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("shellwarp globals"),
-            layout: &pipelines.bind_group_layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: globals.as_entire_binding() }],
-        });
-        if let Some(err) = pollster::block_on(scope.pop()) {
-            return Err(RenderError::Gpu { context: "creating pipelines", message: err.to_string() });
-        }
+        let (pipelines, globals, bind_group) = gpu.scoped("creating pipelines", || {
+            let pipelines = Pipelines::new(device, color_format, sample_count);
+            let globals = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("shellwarp globals"),
+                size: size_of::<Globals>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("shellwarp globals"),
+                layout: &pipelines.bind_group_layout,
+                entries: &[wgpu::BindGroupEntry { binding: 0, resource: globals.as_entire_binding() }],
+            });
+            Ok((pipelines, globals, bind_group))
+        })?;
         Ok(Self {
             color_format,
             sample_count,
@@ -100,7 +99,8 @@ impl Renderer {
 
     /// Draw `frame` into `target` (a view of a `size` texture in [`Renderer::color_format`]) and submit.
     ///
-    /// wgpu validation errors (e.g. a view of the wrong format) are returned instead of panicking.
+    /// wgpu validation and out-of-memory errors (e.g. a view of the wrong format, a target too large
+    /// for memory) are returned instead of panicking.
     pub fn render(
         &mut self,
         gpu: &Gpu,
@@ -108,18 +108,18 @@ impl Renderer {
         target: &wgpu::TextureView,
         size: (u32, u32),
     ) -> Result<(), RenderError> {
-        let oom = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let validation = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let mut encoder =
-            gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shellwarp frame") });
-        self.encode(gpu, &mut encoder, frame, target, size)?;
-        gpu.queue.submit([encoder.finish()]);
-        for scope in [validation, oom] {
-            if let Some(err) = pollster::block_on(scope.pop()) {
-                return Err(RenderError::Gpu { context: "rendering a frame", message: err.to_string() });
-            }
+        let result = gpu.scoped("rendering a frame", || {
+            let mut encoder =
+                gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shellwarp frame") });
+            self.encode(gpu, &mut encoder, frame, target, size)?;
+            gpu.queue.submit([encoder.finish()]);
+            Ok(())
+        });
+        if result.is_err() {
+            // Attachments that failed to allocate are invalid: make them afresh next time.
+            self.targets = None;
         }
-        Ok(())
+        result
     }
 
     /// Record the drawing of `frame` into `encoder` without submitting, so callers can add more passes
@@ -133,7 +133,7 @@ impl Renderer {
         target: &wgpu::TextureView,
         size: (u32, u32),
     ) -> Result<(), RenderError> {
-        check_size(gpu, size)?;
+        gpu.check_size(size)?;
         self.geometry.build(frame)?;
         self.ensure_targets(gpu, size);
         let (device, queue) = (&gpu.device, &gpu.queue);
@@ -218,19 +218,6 @@ impl Renderer {
         let msaa = (self.sample_count > 1).then(|| make("shellwarp msaa colour", self.color_format));
         self.targets = Some(Targets { size, depth, msaa });
     }
-}
-
-/// Refuse empty targets and ones larger than the device allows.
-fn check_size(gpu: &Gpu, (width, height): (u32, u32)) -> Result<(), RenderError> {
-    let max = gpu.device.limits().max_texture_dimension_2d;
-    let reason = if width == 0 || height == 0 {
-        "width and height must be positive".to_string()
-    } else if width > max || height > max {
-        format!("the device allows at most {max} pixels per side")
-    } else {
-        return Ok(());
-    };
-    Err(RenderError::BadSize { width, height, reason })
 }
 
 /// The clear colour for a target: sRGB targets take linear values, others need them encoded.

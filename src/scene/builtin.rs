@@ -7,6 +7,10 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("creature", include_str!("../../assets/scenes/creature.toml")),
     ("hanging-sheet", include_str!("../../assets/scenes/hanging-sheet.toml")),
     ("drape", include_str!("../../assets/scenes/drape.toml")),
+    ("drape-quad", include_str!("../../assets/scenes/drape-quad.toml")),
+    ("spin", include_str!("../../assets/scenes/spin.toml")),
+    ("sweep", include_str!("../../assets/scenes/sweep.toml")),
+    ("table", include_str!("../../assets/scenes/table.toml")),
     ("balloon", include_str!("../../assets/scenes/balloon.toml")),
 ];
 

@@ -44,13 +44,12 @@ pub enum SceneError {
         reason: String,
     },
     /// The mesh could not be made or read.
-    #[error("{file}: mesh: {source}")]
+    #[error("{file}: mesh: {error}")]
     Mesh {
         /// The file.
         file: String,
-        /// The mesh error.
-        #[source]
-        source: MeshError,
+        /// The mesh error (part of this message, so deliberately not also its `source`).
+        error: MeshError,
     },
     /// A `--set key=value` override that cannot be applied.
     #[error("--set {arg}: {reason}")]

@@ -11,7 +11,9 @@ mod validate;
 
 pub use builtin::{BUILTIN, builtin_names};
 pub use error::SceneError;
-pub use schema::{Aabb, CameraSpec, Collider, Load, Material, MeshSource, Placement, Scene, Selection, SolverSettings};
+pub use schema::{
+    Aabb, CameraSpec, Collider, Load, Material, MeshSource, Motion, Placement, Scene, Selection, SolverSettings,
+};
 pub use setup::Setup;
 
 use std::path::{Path, PathBuf};
@@ -54,7 +56,8 @@ pub fn parse(text: &str, origin: &Origin, overrides: &[String]) -> Result<Scene,
         for arg in overrides {
             overrides::apply(&mut table, arg)?;
         }
-        toml::Value::Table(table).try_into().map_err(|e| overrides::parse_error(&origin.label, "", &e))?
+        serde_path_to_error::deserialize(toml::Value::Table(table))
+            .map_err(|e| overrides::typed_error(&origin.label, text, overrides, e))?
     };
     scene.validate().map_err(|(key, reason)| SceneError::Invalid { file: origin.label.clone(), key, reason })?;
     Ok(scene)
@@ -155,6 +158,29 @@ mod tests {
         assert!(e.contains("k_bnd"), "{e}");
         let e = parse(MINIMAL, &origin(), &["material.k_bend=-2".into()]).unwrap_err().to_string();
         assert!(e.contains("material.k_bend"), "{e}");
+    }
+
+    #[test]
+    fn override_type_errors_name_the_argument_and_key() {
+        let set = |args: &[&str]| {
+            let args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
+            parse(MINIMAL, &origin(), &args).unwrap_err().to_string()
+        };
+        assert_eq!(
+            set(&["solver.modes=4", "material.k_bend=abc"]),
+            "--set material.k_bend=abc: `material.k_bend`: invalid type: string \"abc\", expected f64"
+        );
+        let e = set(&["mesh.grid.segments=[4]"]);
+        assert!(e.starts_with("--set mesh.grid.segments=[4]: `mesh.grid.segments`:"), "{e}");
+        let e = set(&["material.k_bnd=0.5"]);
+        assert!(e.starts_with("--set material.k_bnd=0.5:") && e.contains("k_bnd"), "{e}");
+        // A table replaced by a scalar: the error is inside what the argument replaced.
+        let e = set(&["camera=3"]);
+        assert!(e.starts_with("--set camera=3: `camera`:"), "{e}");
+        // An error in the file itself keeps its line even when overrides are given.
+        let broken = MINIMAL.replace("segments = [4, 1]", "segments = \"many\"");
+        let e = parse(&broken, &origin(), &["material.k_bend=0.5".into()]).unwrap_err().to_string();
+        assert!(e.starts_with("test.toml:4:12: `segments`: invalid type"), "{e}");
     }
 
     #[test]

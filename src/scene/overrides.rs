@@ -21,7 +21,33 @@ pub(crate) fn parse_error(file: &str, text: &str, e: &toml::de::Error) -> SceneE
     SceneError::Parse { file: file.to_string(), line, column, message }
 }
 
-/// Set the dotted `key` (e.g. `material.k_bend`) to `value` parsed as a TOML value (a bare word is a string).
+/// A deserialisation error of the overridden scene: blame the `--set` argument whose key it concerns,
+/// or else the file (with its line, found by parsing the file alone, when the file itself is wrong).
+pub(crate) fn typed_error(
+    file: &str,
+    text: &str,
+    overrides: &[String],
+    e: serde_path_to_error::Error<toml::de::Error>,
+) -> SceneError {
+    let path = e.path().to_string();
+    let message = e.inner().message().trim().replace('\n', " ");
+    let related = |key: &str| {
+        let within = |outer: &str, inner: &str| {
+            inner == outer || inner.strip_prefix(outer).is_some_and(|rest| rest.starts_with(['.', '[']))
+        };
+        path != "." && (within(key, &path) || within(&path, key))
+    };
+    if let Some(arg) = overrides.iter().find(|a| related(a.split_once('=').map_or(a.as_str(), |(k, _)| k.trim()))) {
+        return SceneError::Override { arg: arg.clone(), reason: format!("`{path}`: {message}") };
+    }
+    match toml::from_str::<super::Scene>(text) {
+        Err(e) => parse_error(file, text, &e),
+        Ok(_) => SceneError::Invalid { file: file.to_string(), key: path, reason: message },
+    }
+}
+
+/// Set the dotted `key` (e.g. `material.k_bend`) to `value` parsed as a TOML value. A bare word is a
+/// string; something that looks like TOML but does not parse (`[1`, `"abc`) is refused.
 pub(crate) fn apply(table: &mut toml::Table, arg: &str) -> Result<(), SceneError> {
     let fail = |reason: &str| SceneError::Override { arg: arg.to_string(), reason: reason.to_string() };
     let (key, raw) = arg.split_once('=').ok_or_else(|| fail("expected key=value"))?;
@@ -29,8 +55,16 @@ pub(crate) fn apply(table: &mut toml::Table, arg: &str) -> Result<(), SceneError
     if key.is_empty() || key.split('.').any(str::is_empty) {
         return Err(fail("empty key"));
     }
+    if raw.is_empty() {
+        return Err(fail("no value (write key=\"\" for an empty string)"));
+    }
     let value = match toml::from_str::<toml::Table>(&format!("v = {raw}")) {
-        Ok(mut t) => t.remove("v").ok_or_else(|| fail("no value"))?,
+        Ok(mut t) if t.len() == 1 => t.remove("v").ok_or_else(|| fail("no value"))?,
+        Ok(_) => return Err(fail("expected one value")),
+        Err(e) if raw.contains(['[', ']', '{', '}', '"', '\'', '=', '\n']) => {
+            let why = e.message().trim().replace('\n', " ");
+            return Err(fail(&format!("not a TOML value ({why}); quote strings, e.g. key=\"text\"")));
+        }
         Err(_) => toml::Value::String(raw.to_string()),
     };
     let mut parts: Vec<&str> = key.split('.').collect();
@@ -60,5 +94,21 @@ mod tests {
         assert!(apply(&mut t, "a.b=1").is_err(), "a is a number, not a table");
         assert!(apply(&mut t, "novalue").is_err());
         assert!(apply(&mut t, ".x=1").is_err());
+    }
+
+    #[test]
+    fn malformed_values_are_refused_not_taken_as_strings() {
+        let mut t = toml::Table::new();
+        for arg in ["name=[1", "name=1]", "name=\"abc", "name={a = 1", "name=a=b", "name=", "name=1\nx = 2"] {
+            match apply(&mut t, arg) {
+                Err(SceneError::Override { arg: a, .. }) => assert_eq!(a, arg),
+                other => panic!("{arg:?}: {other:?}"),
+            }
+        }
+        assert!(t.is_empty(), "nothing was set: {t:?}");
+        apply(&mut t, "name=\"[1\"").unwrap();
+        apply(&mut t, "description=two words").unwrap();
+        assert_eq!(t["name"].as_str(), Some("[1"));
+        assert_eq!(t["description"].as_str(), Some("two words"));
     }
 }

@@ -133,11 +133,35 @@ pub struct Material {
     pub k_length: f64,
     /// Shell bending stiffness k_B, N·m.
     pub k_bend: f64,
+    /// Cloth edge-spring (stretch) stiffness k_s, N/m per spring.
+    pub k_s: f64,
+    /// Cloth bending rigidity per unit width k_b, N·m: each buckling spring's flexural rigidity is
+    /// `k_b` times the width of cloth it stands for.
+    pub k_b: f64,
+    /// Cloth buckling springs' linear branch near rest, c_b, N/m per spring.
+    pub c_b: f64,
+    /// Cloth spring damping k_d, N·s/m per spring.
+    pub k_d: f64,
+    /// Static friction coefficient between the mesh and colliders.
+    pub mu_s: f64,
+    /// Kinetic (sliding) friction coefficient between the mesh and colliders.
+    pub mu_k: f64,
 }
 
 impl Default for Material {
     fn default() -> Self {
-        Self { density: 0.5, k_area: 1.0e3, k_length: 1.0e3, k_bend: 1.0e-2 }
+        Self {
+            density: 0.5,
+            k_area: 1.0e3,
+            k_length: 1.0e3,
+            k_bend: 1.0e-2,
+            k_s: 200.0,
+            k_b: 1.0e-6,
+            c_b: 200.0,
+            k_d: 2.0e-3,
+            mu_s: 0.0,
+            mu_k: 0.0,
+        }
     }
 }
 
@@ -173,24 +197,64 @@ pub struct Load {
     pub force: [f64; 3],
 }
 
-/// A rigid body the mesh collides with: `{ sphere = { center = [..], radius = .. } }` or `{ plane = {..} }`.
+/// A rigid body the mesh collides with: `{ sphere = { center = [..], radius = .. } }`, `{ plane = {..} }`
+/// or `{ mesh = { path = "body.obj" } }`, each with an optional scripted `motion`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields)]
 pub enum Collider {
     /// A ball.
     Sphere {
-        /// Centre, metres.
+        /// Centre at t = 0, metres.
         center: [f64; 3],
         /// Radius, metres.
         radius: f64,
+        /// How it moves (still if absent).
+        #[serde(default)]
+        motion: Motion,
     },
     /// An infinite plane; the mesh stays on the side the normal points to.
     Plane {
-        /// A point on the plane.
+        /// A point on the plane at t = 0.
         point: [f64; 3],
         /// Outward normal (need not be unit length).
         normal: [f64; 3],
+        /// How it moves (still if absent).
+        #[serde(default)]
+        motion: Motion,
     },
+    /// A closed triangle mesh from an OBJ file (path relative to the scene file), solid inside.
+    Mesh {
+        /// The file.
+        path: String,
+        /// Uniform scale applied to the file's coordinates.
+        #[serde(default = "one")]
+        scale: f64,
+        /// Where the file's origin is placed at t = 0, metres.
+        #[serde(default)]
+        translate: [f64; 3],
+        /// How it moves (still if absent); spin is about the placed origin.
+        #[serde(default)]
+        motion: Motion,
+    },
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// A scripted rigid motion: centre `c(t) = c₀ + velocity·t + amplitude·sin(2π·frequency·t)`, and a
+/// constant `spin` (angular velocity, axis × rad/s) about the centre.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Motion {
+    /// Constant velocity, m/s.
+    pub velocity: [f64; 3],
+    /// Oscillation amplitude, m.
+    pub amplitude: [f64; 3],
+    /// Oscillation frequency, Hz.
+    pub frequency: f64,
+    /// Angular velocity, rad/s.
+    pub spin: [f64; 3],
 }
 
 /// Which method runs the scene, and its numerical settings (method-specific ones are ignored by others).
@@ -202,6 +266,9 @@ pub struct SolverSettings {
     /// Fixed time step in seconds; the method's default if absent.
     #[serde(default)]
     pub step: Option<f64>,
+    /// Inner step of methods that subdivide their step (`ds`), seconds; automatic if absent.
+    #[serde(default)]
+    pub substep: Option<f64>,
     /// Number of vibration modes for modal methods.
     #[serde(default = "default_modes")]
     pub modes: usize,
@@ -217,6 +284,9 @@ pub struct SolverSettings {
     /// Relative tolerance of the inner solve.
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
+    /// Contact margin for collisions with colliders, metres (the method's default if absent).
+    #[serde(default)]
+    pub margin: Option<f64>,
 }
 
 fn default_modes() -> usize {

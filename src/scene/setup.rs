@@ -2,8 +2,9 @@
 
 use glam::{DQuat, DVec3, EulerRot};
 
-use super::schema::{MeshSource, Placement, Scene, Selection};
+use super::schema::{Collider, MeshSource, Motion, Placement, Scene, Selection};
 use super::{Origin, SceneError};
+use crate::collision::{self, Body, MeshDistance, Shape};
 use crate::mesh::{MeshError, TriMesh, generate};
 
 /// A scene made concrete: what every solver is built from.
@@ -19,12 +20,14 @@ pub struct Setup {
     pub anchors: Vec<usize>,
     /// Constant external point force on each vertex (gravity not included), newtons.
     pub loads: Vec<DVec3>,
+    /// The colliders, ready for contact queries (in the scene's order).
+    pub bodies: Vec<Body>,
 }
 
 impl Setup {
     /// Make the mesh and resolve selections. Fails if the mesh cannot be made or a selection is empty.
     pub fn new(scene: Scene, origin: Origin) -> Result<Self, SceneError> {
-        let mesh_err = |source: MeshError| SceneError::Mesh { file: origin.label.clone(), source };
+        let mesh_err = |error: MeshError| SceneError::Mesh { file: origin.label.clone(), error };
         let raw = make_mesh(&scene.mesh, &origin).map_err(mesh_err)?;
         let mesh = place(&raw, &scene.placement).map_err(mesh_err)?;
         let invalid = |key: String, reason: String| SceneError::Invalid { file: origin.label.clone(), key, reason };
@@ -40,7 +43,11 @@ impl Setup {
                 loads[v] += DVec3::from(l.force);
             }
         }
-        Ok(Self { scene, origin, mesh, anchors, loads })
+        let mut bodies = Vec::with_capacity(scene.colliders.len());
+        for (i, c) in scene.colliders.iter().enumerate() {
+            bodies.push(body(c, &origin).map_err(|reason| invalid(format!("colliders[{i}]"), reason))?);
+        }
+        Ok(Self { scene, origin, mesh, anchors, loads, bodies })
     }
 
     /// Lumped vertex masses: density × one third of the area of each incident triangle, kg.
@@ -73,6 +80,34 @@ fn make_mesh(source: &MeshSource, origin: &Origin) -> Result<TriMesh, MeshError>
         MeshSource::Creature { length, frequency } => generate::creature(length, frequency),
         MeshSource::Obj { ref path } => crate::mesh::obj::load_obj(&origin.dir.join(path)),
     }
+}
+
+/// The collision body of a collider; a mesh collider's file is read and checked here.
+fn body(collider: &Collider, origin: &Origin) -> Result<Body, String> {
+    let motion = |m: &Motion| collision::Motion {
+        velocity: DVec3::from(m.velocity),
+        amplitude: DVec3::from(m.amplitude),
+        frequency: m.frequency,
+        spin: DVec3::from(m.spin),
+    };
+    Ok(match collider {
+        Collider::Sphere { center, radius, motion: m } => {
+            Body { shape: Shape::Sphere { radius: *radius }, origin: DVec3::from(*center), motion: motion(m) }
+        }
+        Collider::Plane { point, normal, motion: m } => Body {
+            shape: Shape::Plane { normal: DVec3::from(*normal).normalize() },
+            origin: DVec3::from(*point),
+            motion: motion(m),
+        },
+        Collider::Mesh { path, scale, translate, motion: m } => {
+            let file = origin.dir.join(path);
+            let mesh = crate::mesh::obj::load_obj(&file)
+                .and_then(|mesh| mesh.transformed(|x| x * *scale))
+                .map_err(|e| e.to_string())?;
+            let distance = MeshDistance::new(&mesh).map_err(|e| format!("{}: {e}", file.display()))?;
+            Body { shape: Shape::Mesh(Box::new(distance)), origin: DVec3::from(*translate), motion: motion(m) }
+        }
+    })
 }
 
 fn place(mesh: &TriMesh, p: &Placement) -> Result<TriMesh, MeshError> {

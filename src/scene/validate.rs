@@ -101,6 +101,11 @@ impl Scene {
         non_negative("material.k_area", m.k_area)?;
         non_negative("material.k_length", m.k_length)?;
         non_negative("material.k_bend", m.k_bend)?;
+        for (key, v) in
+            [("k_s", m.k_s), ("k_b", m.k_b), ("c_b", m.c_b), ("k_d", m.k_d), ("mu_s", m.mu_s), ("mu_k", m.mu_k)]
+        {
+            non_negative(&format!("material.{key}"), v)?;
+        }
         for (i, a) in self.anchors.iter().enumerate() {
             selection(&format!("anchors[{i}]"), a)?;
         }
@@ -110,21 +115,39 @@ impl Scene {
             vec3(&format!("loads[{i}].force"), l.force)?;
         }
         for (i, c) in self.colliders.iter().enumerate() {
-            match c {
-                Collider::Sphere { center, radius } => {
-                    vec3(&format!("colliders[{i}].center"), *center)?;
-                    positive(&format!("colliders[{i}].radius"), *radius)?;
+            let key = |k: &str| format!("colliders[{i}].{k}");
+            let motion = match c {
+                Collider::Sphere { center, radius, motion } => {
+                    vec3(&key("center"), *center)?;
+                    positive(&key("radius"), *radius)?;
+                    motion
                 }
-                Collider::Plane { point, normal } => {
-                    vec3(&format!("colliders[{i}].point"), *point)?;
-                    vec3(&format!("colliders[{i}].normal"), *normal)?;
+                Collider::Plane { point, normal, motion } => {
+                    vec3(&key("point"), *point)?;
+                    vec3(&key("normal"), *normal)?;
                     if normal.iter().all(|&x| x == 0.0) {
-                        return Err((format!("colliders[{i}].normal"), "must not be zero".into()));
+                        return Err((key("normal"), "must not be zero".into()));
                     }
+                    motion
                 }
-            }
+                Collider::Mesh { path, scale, translate, motion } => {
+                    if path.is_empty() {
+                        return Err((key("path"), "is empty".into()));
+                    }
+                    positive(&key("scale"), *scale)?;
+                    vec3(&key("translate"), *translate)?;
+                    motion
+                }
+            };
+            vec3(&key("motion.velocity"), motion.velocity)?;
+            vec3(&key("motion.amplitude"), motion.amplitude)?;
+            non_negative(&key("motion.frequency"), motion.frequency)?;
+            vec3(&key("motion.spin"), motion.spin)?;
         }
         let s = &self.solver;
+        if let Some(h) = s.substep {
+            positive("solver.substep", h)?;
+        }
         if let Some(h) = s.step {
             positive("solver.step", h)?;
         }
@@ -133,6 +156,9 @@ impl Scene {
         non_negative("solver.rayleigh_beta", s.rayleigh_beta)?;
         at_least("solver.iterations", s.iterations, 1)?;
         positive("solver.tolerance", s.tolerance)?;
+        if let Some(m) = s.margin {
+            positive("solver.margin", m)?;
+        }
         vec3("camera.eye", self.camera.eye)?;
         vec3("camera.target", self.camera.target)?;
         if !(1.0..=170.0).contains(&self.camera.fov_deg) {

@@ -1,10 +1,15 @@
 //! `ds`: the paper's reference — the fully nonlinear discrete shell integrated with symplectic
-//! (semi-implicit) Euler at a fine substep (default 1/30000 s). One [`Solver::step`] advances one
-//! 1/30 s frame, i.e. `frame / substep` substeps:
+//! (semi-implicit) Euler at a fine substep. One [`Solver::step`] advances one frame (`solver.step`,
+//! default 1/30 s) in equal substeps `h`:
 //! `v ← v + h M⁻¹ (f_ext − ∇W(x) − C v)`, `x ← x + h v` on the free vertices.
 //!
-//! Explicit integration is only conditionally stable; raise `substep` far above its limit and the
-//! state explodes, which is reported as [`SolverError::Diverged`].
+//! The substep is `solver.substep` (or the `substep` parameter) when one is given, used as given.
+//! Otherwise it is automatic: the paper's 1/30000 s, or [`SAFETY`] × the estimated stable limit of
+//! [`super::stability`] when that is smaller — a mesh with small stiff triangles (the creature) needs a
+//! much finer step than the paper's. [`Solver::notes`] says which substep was chosen and why.
+//!
+//! Explicit integration is only conditionally stable: a substep far above the limit makes the state
+//! explode, which is reported as [`SolverError::Diverged`] naming the substep and the limit.
 
 use std::time::Instant;
 
@@ -12,25 +17,42 @@ use glam::DVec3;
 
 use super::registry::Method;
 use super::shell_model::SHELL_PARAMS;
+use super::stability::{StabilityLimit, stability_limit};
 use super::{DragSet, ParamSpec, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
 use crate::scene::Setup;
 
 /// Registry entry.
 pub const METHOD: Method = Method {
     name: "ds",
-    summary: "discrete shell reference: symplectic Euler at a fine substep (default 1/30000 s)",
+    summary: "discrete shell reference: symplectic Euler at 1/30000 s or finer (automatic stable substep); \
+              no collisions",
     build: |setup| Ok(Box::new(DsExplicit::new(setup)?)),
 };
 
-const FRAME: f64 = 1.0 / 30.0;
+/// The paper's substep, s.
+const PAPER_SUBSTEP: f64 = 1.0 / 30000.0;
+
+/// Fraction of the estimated stable limit an automatic substep may use.
+pub const SAFETY: f64 = 0.8;
+
+const FRAME: ParamSpec = ParamSpec {
+    name: "step",
+    label: "frame",
+    unit: "s",
+    help: "Time one step advances, in substeps.",
+    min: 1e-6,
+    max: 1.0,
+    log_scale: true,
+    integer: false,
+};
 
 const SUBSTEP: ParamSpec = ParamSpec {
     name: "substep",
     label: "substep",
     unit: "s",
-    help: "Symplectic Euler step; a 1/30 s frame takes frame/substep of them.",
-    min: 1e-7,
-    max: FRAME,
+    help: "Symplectic Euler step, used as given; 0 = automatic (1/30000 s, or 0.8 × the stable limit if smaller).",
+    min: 0.0,
+    max: 1.0,
     log_scale: true,
     integer: false,
 };
@@ -40,20 +62,48 @@ pub struct DsExplicit {
     model: ShellModel,
     x: Vec<DVec3>,
     v: Vec<DVec3>,
-    substep: f64,
+    frame: f64,
+    /// The substep asked for; `None` = automatic.
+    requested: Option<f64>,
+    /// Estimated stability limit for the current parameters.
+    limit: StabilityLimit,
     drags: DragSet,
     steps: u64,
     time: f64,
 }
 
 impl DsExplicit {
-    /// Build from a scene; `solver.step` (if given) sets the substep.
+    /// Build from a scene: `solver.step` sets the frame (default 1/30 s), `solver.substep` the substep
+    /// (automatic if absent).
     pub fn new(setup: &Setup) -> Result<Self, SolverError> {
-        let model = ShellModel::new(setup)?;
-        let substep = SUBSTEP.check(setup.scene.solver.step.unwrap_or(1.0 / 30000.0))?;
+        let mut model = ShellModel::new(setup)?;
+        let s = &setup.scene.solver;
+        let frame = FRAME.check(s.step.unwrap_or(1.0 / 30.0))?;
+        let requested = s.substep.map(|h| SUBSTEP.check(h)).transpose()?.filter(|&h| h > 0.0);
+        let limit = stability_limit(&mut model);
         let x = model.rest().to_vec();
         let n = x.len();
-        Ok(Self { model, v: vec![DVec3::ZERO; n], x, substep, drags: DragSet::new(n, false), steps: 0, time: 0.0 })
+        Ok(Self {
+            model,
+            v: vec![DVec3::ZERO; n],
+            x,
+            frame,
+            requested,
+            limit,
+            drags: DragSet::new(n, false),
+            steps: 0,
+            time: 0.0,
+        })
+    }
+
+    /// The substep in use: the requested one, else the automatic choice.
+    pub fn substep(&self) -> f64 {
+        self.requested.unwrap_or(PAPER_SUBSTEP.min(SAFETY * self.limit.step))
+    }
+
+    /// The estimated stable limit of the substep (at rest, with the current parameters), s.
+    pub fn stable_limit(&self) -> f64 {
+        self.limit.step
     }
 
     /// Total energy: elastic + kinetic + load potential (relative to rest), J.
@@ -68,14 +118,15 @@ impl Solver for DsExplicit {
     }
 
     fn time_step(&self) -> f64 {
-        FRAME
+        self.frame
     }
 
     fn step(&mut self) -> Result<StepStats, SolverError> {
         let start = Instant::now();
         self.model.apply_drags(&self.drags, &mut self.x, &mut self.v)?;
-        let substeps = (FRAME / self.substep).round().max(1.0) as usize;
-        let h = FRAME / substeps as f64;
+        // The fewest equal substeps not longer than the substep (a ratio that is whole up to round-off stays whole).
+        let substeps = (self.frame / self.substep() * (1.0 - 1e-12)).ceil().max(1.0) as usize;
+        let h = self.frame / substeps as f64;
         let n = self.model.dofs().dofs();
         let free: Vec<usize> = self.model.dofs().free_vertices().to_vec();
         let inv_mass: Vec<f64> = free.iter().map(|&i| 1.0 / self.model.masses()[i]).collect();
@@ -99,17 +150,28 @@ impl Solver for DsExplicit {
             if s % 256 == 255 || s + 1 == substeps {
                 residual = free.iter().map(|&i| g[i].length_squared()).sum::<f64>().sqrt();
                 let t = self.time + (s + 1) as f64 * h;
-                check_finite(self.steps + 1, t, &self.x, self.energy(), limit)?;
+                check_finite(self.steps + 1, t, &self.x, self.energy(), limit).map_err(|e| match e {
+                    SolverError::Diverged { step, time, reason } => SolverError::Diverged {
+                        step,
+                        time,
+                        reason: format!(
+                            "{reason} (substep {h:.3e} s; estimated stable limit {:.3e} s)",
+                            self.limit.step
+                        ),
+                    },
+                    other => other,
+                })?;
             }
         }
         self.steps += 1;
-        self.time += FRAME;
+        self.time += self.frame;
         Ok(StepStats {
             wall_seconds: start.elapsed().as_secs_f64(),
             sim_time: self.time,
             energy: self.energy(),
             residual,
             iterations: substeps as u32,
+            ..StepStats::default()
         })
     }
 
@@ -126,20 +188,41 @@ impl Solver for DsExplicit {
 
     fn params(&self) -> Vec<ParamValue> {
         let mut p = self.model.params();
-        p.push(ParamValue { spec: SUBSTEP, value: self.substep });
+        p.push(ParamValue { spec: FRAME, value: self.frame });
+        p.push(ParamValue { spec: SUBSTEP, value: self.substep() });
         p
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
         if name == SUBSTEP.name {
-            self.substep = SUBSTEP.check(value)?;
+            self.requested = Some(SUBSTEP.check(value)?).filter(|&h| h > 0.0);
+            return Ok(());
+        }
+        if name == FRAME.name {
+            self.frame = FRAME.check(value)?;
             return Ok(());
         }
         if self.model.set_param(METHOD.name, name, value)? {
+            self.limit = stability_limit(&mut self.model);
             return Ok(());
         }
-        let all: Vec<ParamSpec> = SHELL_PARAMS.iter().copied().chain([SUBSTEP]).collect();
+        let all: Vec<ParamSpec> = SHELL_PARAMS.iter().copied().chain([FRAME, SUBSTEP]).collect();
         ParamSpec::find(METHOD.name, &all, name).map(|_| ())
+    }
+
+    fn notes(&self) -> Vec<String> {
+        let (h, limit) = (self.substep(), self.limit.step);
+        let source = match self.requested {
+            Some(_) if h > limit => "as requested, ABOVE the estimated stable limit: expect divergence",
+            Some(_) => "as requested",
+            None if h < PAPER_SUBSTEP => "automatic: safety × the stable limit, below the paper's 1/30000 s",
+            None => "automatic: the paper's 1/30000 s, within safety × the stable limit",
+        };
+        vec![format!(
+            "substep {h:.3e} s ({source}); estimated stable limit {limit:.3e} s (ω_max = {:.3e} rad/s at rest, \
+             safety {SAFETY})",
+            self.limit.omega_max
+        )]
     }
 
     fn drags(&self) -> &DragSet {

@@ -1,14 +1,24 @@
 //! `ds-static`: static equilibrium of the loaded, anchored shell — Newton with line search on the
-//! potential `W(x) − f_extᵀ(x − X)` (see [`super::newton`]). Each [`Solver::step`] runs Newton from
-//! the current positions until converged (or the iteration cap), so after a step the positions are
-//! the equilibrium; changing a load parameter and stepping again continues from there (load stepping).
+//! potential `W(x) − f_extᵀ(x − X)` (see [`super::newton`]). Each [`Solver::step`] moves the shell from
+//! the equilibrium it is in to the equilibrium under the current loads; changing a load parameter and
+//! stepping again continues from there.
+//!
+//! Adaptive load continuation: Newton from a far-away state (a soft, nearly inextensible strip under a
+//! large load, starting flat) crawls, because the linearised step stretches the membrane and the line
+//! search must cut it to slivers. So the step walks the load path `f(t) = f₀ + t (f₁ − f₀)` from the
+//! load `f₀` of the current equilibrium to the current load `f₁`: a stage that converges within
+//! [`STAGE_ITERATIONS`] is kept and the next increment doubles; one that does not is undone and the
+//! increment quartered. The `iterations` cap bounds the step's total. A step that runs out of budget
+//! (or of increments) stays at the last equilibrium it reached, reports `converged = false` with the
+//! residual under the full load, and the next step continues the path from there with the increment
+//! it had reached.
 
 use std::time::Instant;
 
 use glam::DVec3;
 
 use super::ds_implicit::NEWTON_PARAMS;
-use super::newton::NewtonSettings;
+use super::newton::{NewtonReport, NewtonSettings};
 use super::registry::Method;
 use super::shell_model::SHELL_PARAMS;
 use super::{DragSet, ParamSpec, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
@@ -17,14 +27,25 @@ use crate::scene::Setup;
 /// Registry entry.
 pub const METHOD: Method = Method {
     name: "ds-static",
-    summary: "discrete shell static equilibrium: Newton with line search on W − f_extᵀu",
+    summary: "discrete shell static equilibrium: Newton with line search on W − f_extᵀu, adaptive load \
+              stepping; no collisions",
     build: |setup| Ok(Box::new(DsStatic::new(setup)?)),
 };
+
+/// Newton iterations one stage of the load path may take before its increment is judged too large.
+pub const STAGE_ITERATIONS: usize = 25;
+
+/// The smallest load increment (fraction of the step's load change) before the step gives up.
+const MIN_INCREMENT: f64 = 1.0 / 4096.0;
 
 /// The static equilibrium solver.
 pub struct DsStatic {
     model: ShellModel,
     x: Vec<DVec3>,
+    /// The external load `x` is in equilibrium with (zero at rest).
+    settled: Vec<DVec3>,
+    /// First load increment of the next step, as a fraction of its load change.
+    increment: f64,
     newton: NewtonSettings,
     drags: DragSet,
     steps: u64,
@@ -48,10 +69,80 @@ impl DsStatic {
         Ok(Self {
             model,
             x,
+            settled: vec![DVec3::ZERO; n],
+            increment: 1.0,
             newton: NewtonSettings { max_iterations, tolerance },
             drags: DragSet::new(n, false),
             steps: 0,
         })
+    }
+}
+
+impl DsStatic {
+    /// Walk the load path from `settled` to the current loads (see the module doc). Leaves the model's
+    /// forces at the current loads; the report's iterations are the total over all stages.
+    fn continuation(&mut self) -> Result<NewtonReport, SolverError> {
+        let target = self.model.scene_forces();
+        let from = self.settled.clone();
+        let load = |t: f64| -> Vec<DVec3> { from.iter().zip(&target).map(|(a, b)| *a + (*b - *a) * t).collect() };
+        let (mut t, mut increment) = (0.0, self.increment);
+        let mut iterations = 0u32;
+        // The last equilibrium on the path, and the one before it (for the secant predictor).
+        let mut saved = self.x.clone();
+        let mut previous: Option<(f64, Vec<DVec3>)> = None;
+        let mut last = None;
+        let mut result = Ok(());
+        while t < 1.0 {
+            let remaining = self.newton.max_iterations.saturating_sub(iterations as usize);
+            if remaining == 0 || increment < MIN_INCREMENT {
+                break;
+            }
+            let next = (t + increment).min(1.0);
+            // Secant predictor: extrapolate the path through the last two equilibria.
+            if let Some((t_prev, x_prev)) = &previous {
+                let r = (next - t) / (t - t_prev);
+                self.x.iter_mut().zip(&saved).zip(x_prev).for_each(|((x, s), p)| *x = *s + (*s - *p) * r);
+            }
+            self.model.set_external_forces(load(next));
+            // The direct attempt (the whole load change at once) may use half the budget: Newton often
+            // gets there on its own; the stages of a continuation get `STAGE_ITERATIONS` each.
+            let cap = if t == 0.0 && increment == 1.0 { remaining / 2 } else { STAGE_ITERATIONS };
+            let stage = NewtonSettings { max_iterations: remaining.min(cap.max(STAGE_ITERATIONS)), ..self.newton };
+            let outcome = self.model.minimize(&mut self.x, None, stage);
+            iterations += outcome.as_ref().map_or(0, |r| r.iterations);
+            match outcome {
+                Ok(r) if r.converged => {
+                    previous = Some((t, std::mem::replace(&mut saved, self.x.clone())));
+                    t = next;
+                    increment *= 2.0;
+                    last = Some(r);
+                }
+                // A non-finite stage is a too-large increment too, unless it was already the smallest.
+                Err(e) if increment <= MIN_INCREMENT => {
+                    result = Err(e);
+                    break;
+                }
+                _ => {
+                    self.x.copy_from_slice(&saved);
+                    increment /= 4.0;
+                }
+            }
+        }
+        self.settled = load(t);
+        // Continue next time with this increment, rescaled to the load change that is left.
+        self.increment = if t >= 1.0 { 1.0 } else { (increment / (1.0 - t)).clamp(MIN_INCREMENT, 1.0) };
+        self.model.set_external_forces(target);
+        result?;
+        let mut report = match last {
+            Some(r) if t >= 1.0 => r,
+            // Stopped short: report the residual under the full load (a zero-iteration solve measures it).
+            _ => NewtonReport {
+                converged: false,
+                ..self.model.minimize(&mut self.x, None, NewtonSettings { max_iterations: 0, ..self.newton })?
+            },
+        };
+        report.iterations = iterations;
+        Ok(report)
     }
 }
 
@@ -69,7 +160,7 @@ impl Solver for DsStatic {
         let mut v = vec![DVec3::ZERO; self.x.len()];
         self.model.apply_drags(&self.drags, &mut self.x, &mut v)?;
         let time = (self.steps + 1) as f64 * self.time_step();
-        let report = self.model.minimize(&mut self.x, None, self.newton).map_err(|e| SolverError::Diverged {
+        let report = self.continuation().map_err(|e| SolverError::Diverged {
             step: self.steps + 1,
             time,
             reason: e.to_string(),
@@ -83,6 +174,8 @@ impl Solver for DsStatic {
             energy,
             residual: report.residual,
             iterations: report.iterations,
+            relative_residual: report.relative_residual,
+            converged: report.converged,
         })
     }
 
@@ -92,6 +185,8 @@ impl Solver for DsStatic {
 
     fn reset(&mut self) {
         self.x = self.model.rest().to_vec();
+        self.settled.fill(DVec3::ZERO);
+        self.increment = 1.0;
         self.steps = 0;
     }
 

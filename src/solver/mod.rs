@@ -4,6 +4,7 @@
 //! The viewer, the headless renderer, `sim` and `eval` drive solvers only through this trait, so a
 //! new method is one new file plus one line in [`registry::METHODS`].
 
+pub mod cloth;
 mod drag;
 mod ds_explicit;
 mod ds_implicit;
@@ -15,6 +16,7 @@ mod params;
 pub mod registry;
 mod rigid;
 mod shell_model;
+mod stability;
 mod stats;
 
 pub use drag::{Drag, DragId, DragKind, DragSet};
@@ -63,6 +65,26 @@ pub trait Solver: Send {
     /// Background work in progress (e.g. recomputing modes after a parameter change), if any.
     fn progress(&self) -> Option<Progress> {
         None
+    }
+
+    /// Finish background work that is ready (e.g. swap in recomputed modes) without stepping, so a
+    /// paused simulation still shows it; [`Solver::step`] does this too. An error is the background
+    /// work's failure; the solver keeps its previous state. Methods without background work keep the
+    /// default, which does nothing.
+    fn poll(&mut self) -> Result<(), SolverError> {
+        Ok(())
+    }
+
+    /// Read-only figures describing the state in use, as (label, value), for the UI (e.g. the number
+    /// of modes of the active basis while another one is being computed). Empty by default.
+    fn info(&self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
+
+    /// Choices the method made by itself that a user should know about (e.g. a substep lowered to
+    /// stay stable), one sentence each; `sim` prints them. None by default.
+    fn notes(&self) -> Vec<String> {
+        Vec::new()
     }
 }
 

@@ -46,7 +46,11 @@ pub struct NewtonReport {
     pub iterations: u32,
     /// Final `|∇Φ|` over the free DOFs, N.
     pub residual: f64,
-    /// Whether the tolerance was met.
+    /// `residual / max(|f_ext|, |∇Φ(y₀)|)`, the quantity [`NewtonSettings::tolerance`] bounds.
+    pub relative_residual: f64,
+    /// Whether the tolerance was met, or the iteration stopped (stalled or capped) with the residual
+    /// inside its round-off floor (see `ShellModel::roundoff_floor`): no f64 iteration can do better.
+    /// `false` otherwise; `y` then holds the best iterate and `relative_residual` says how far it got.
     pub converged: bool,
     /// Times the exact Hessian was replaced by the projected one.
     pub projected: u32,
@@ -133,6 +137,7 @@ impl ShellModel {
         let mut stalls = 0;
         loop {
             report.residual = norm(&g);
+            report.relative_residual = report.residual / reference;
             if !report.residual.is_finite() || !phi.is_finite() {
                 return Err(SolverError::Numerical("non-finite residual in Newton's method".into()));
             }
@@ -141,6 +146,7 @@ impl ShellModel {
                 return Ok(report);
             }
             if report.iterations as usize >= settings.max_iterations {
+                report.converged = report.residual <= self.roundoff_floor(y);
                 return Ok(report);
             }
             report.iterations += 1;
@@ -196,18 +202,33 @@ impl ShellModel {
                 step *= 0.5;
             }
             // Stalled: Φ no longer changes beyond round-off and the residual stops falling (three steps
-            // in a row without a 10% gain) — it sits at its round-off floor.
+            // in a row without a 10% gain). Converged if that is the round-off floor, else stuck.
             stalls = if significant || (accepted && norm(&g_trial) < 0.9 * report.residual) { 0 } else { stalls + 1 };
             if !accepted || stalls >= 3 {
                 if accepted {
                     y.copy_from_slice(&trial);
                     report.residual = norm(&g_trial);
+                    report.relative_residual = report.residual / reference;
                 }
+                report.converged =
+                    report.residual <= settings.tolerance * reference || report.residual <= self.roundoff_floor(y);
                 return Ok(report);
             }
             y.copy_from_slice(&trial);
             std::mem::swap(&mut g, &mut g_trial);
         }
+    }
+}
+
+impl ShellModel {
+    /// The smallest `|∇Φ|` f64 can resolve at `y`: a position is known to `ε|y|`, which moves the
+    /// gradient by the Hessian times that, bounded per DOF by `H_dd ε |y_d|` (the last assembled
+    /// system's diagonal). An iteration that stalls below this has converged as far as f64 allows.
+    fn roundoff_floor(&self, y: &[DVec3]) -> f64 {
+        let mut abs_y = vec![0.0; self.dofs().dofs()];
+        self.dofs().gather(y, &mut abs_y);
+        let diagonal = self.asm.diagonal();
+        f64::EPSILON * diagonal.iter().zip(&abs_y).map(|(h, y)| (h * y).powi(2)).sum::<f64>().sqrt()
     }
 }
 

@@ -1,6 +1,6 @@
 //! The list of methods: a name, a one-line summary and a constructor. Adding a method is one line here.
 
-use super::{Solver, SolverError, ds_explicit, ds_implicit, ds_static, modal, rigid};
+use super::{Solver, SolverError, cloth, ds_explicit, ds_implicit, ds_static, modal, rigid};
 use crate::scene::Setup;
 
 /// A registered simulation method.
@@ -21,6 +21,8 @@ pub const METHODS: &[Method] = &[
     ds_implicit::METHOD,
     ds_static::METHOD,
     ds_explicit::METHOD,
+    cloth::CLOTH,
+    cloth::CLOTH_QUAD,
     rigid::METHOD,
 ];
 

@@ -3,6 +3,9 @@
 //! (gravity on the lumped masses plus the scene's point loads), the reduced Hessian pattern with its
 //! Cholesky analysis, and the shared parameters.
 //!
+//! No contact: a scene's `[[colliders]]` are ignored by every DS method (documented in the README and
+//! the method summaries); the shell passes through them.
+//!
 //! Damping is Rayleigh with the *rest* stiffness, `C = α M + β K₀`: linear, the same damping the modal
 //! methods apply per mode (`α + β λᵢ`), so the DS references are comparable with them.
 
@@ -92,7 +95,19 @@ impl ShellModel {
 
     fn update_forces(&mut self) {
         self.masses = self.mesh.vertex_areas().into_iter().map(|a| a * self.density).collect();
-        self.f_ext = self.masses.iter().zip(&self.loads).map(|(&m, &l)| self.gravity * m + l).collect();
+        self.f_ext = self.scene_forces();
+    }
+
+    /// The external forces the parameters define: gravity on the lumped masses plus point loads, N.
+    pub(crate) fn scene_forces(&self) -> Vec<DVec3> {
+        self.masses.iter().zip(&self.loads).map(|(&m, &l)| self.gravity * m + l).collect()
+    }
+
+    /// Replace the external forces (a stage of a load path) until the next parameter change, which
+    /// restores [`ShellModel::scene_forces`].
+    pub(crate) fn set_external_forces(&mut self, f: Vec<DVec3>) {
+        debug_assert_eq!(f.len(), self.f_ext.len());
+        self.f_ext = f;
     }
 
     /// Rest positions.
@@ -170,11 +185,16 @@ impl ShellModel {
             out.fill(0.0);
             return;
         }
+        self.rest_stiffness_product(v, out);
+        out.iter_mut().for_each(|o| *o *= self.beta);
+    }
+
+    /// `out = K₀ v` on reduced vectors.
+    pub(crate) fn rest_stiffness_product(&mut self, v: &[f64], out: &mut [f64]) {
         self.rest_stiffness();
         if let Some(k0) = &self.k0 {
             self.asm.multiply(Some(k0), v, out);
         }
-        out.iter_mut().for_each(|o| *o *= self.beta);
     }
 
     /// Reduced lumped masses, one per DOF.

@@ -5,7 +5,10 @@ use glam::DVec3;
 use super::SolverError;
 
 /// What one call of [`super::Solver::step`] did.
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+///
+/// The default is a step without an inner solve: zeros everywhere and `converged = true`, so methods
+/// that have nothing to converge can write `StepStats { wall_seconds, sim_time, ..StepStats::default() }`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct StepStats {
     /// Wall-clock time spent in the step, seconds.
     pub wall_seconds: f64,
@@ -17,6 +20,26 @@ pub struct StepStats {
     pub residual: f64,
     /// Iterations of the step's solve (Newton, PCG, constraint sweeps); `0` if none.
     pub iterations: u32,
+    /// `residual` relative to the solve's own scale (for Newton `|∇Φ| / max(|f_ext|, |∇Φ(y₀)|)`, the
+    /// quantity its tolerance bounds); `0` if there is no solve.
+    pub relative_residual: f64,
+    /// Whether the step's solve met its tolerance within its iteration cap (`true` if there is none).
+    /// A step that did not converge still returns `Ok` with the best iterate it reached.
+    pub converged: bool,
+}
+
+impl Default for StepStats {
+    fn default() -> Self {
+        Self {
+            wall_seconds: 0.0,
+            sim_time: 0.0,
+            energy: 0.0,
+            residual: 0.0,
+            iterations: 0,
+            relative_residual: 0.0,
+            converged: true,
+        }
+    }
 }
 
 /// Report divergence if any position or the energy is non-finite, or the energy exceeds `energy_limit`.
@@ -43,6 +66,13 @@ pub fn check_finite(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn default_is_a_converged_step_without_a_solve() {
+        let s = StepStats::default();
+        assert!(s.converged);
+        assert_eq!((s.iterations, s.residual, s.relative_residual), (0, 0.0, 0.0));
+    }
 
     #[test]
     fn detects_nan_positions_and_exploding_energy() {

@@ -128,5 +128,6 @@ mod tests {
         assert!(creature(0.0, 8).is_err());
         assert!(creature(f64::NAN, 8).is_err());
         assert!(creature(1.0, 0).is_err());
+        assert!(matches!(creature(1.0, 1000), Err(MeshError::BadParameter { name: "frequency", .. })));
     }
 }

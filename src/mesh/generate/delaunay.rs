@@ -3,13 +3,11 @@
 use glam::DVec3;
 use spade::{AngleLimit, ConstrainedDelaunayTriangulation, Point2, RefinementParameters, Triangulation};
 
+use super::MAX_VERTICES;
 use crate::mesh::{MeshError, TriMesh};
 
 /// Minimum interior angle the refinement aims for (degrees). Above ~30° refinement may not terminate.
 const ANGLE_LIMIT_DEG: f64 = 28.0;
-
-/// Refuse sheets whose estimated vertex count exceeds this (memory and time guard).
-const MAX_VERTICES: f64 = 4.0e6;
 
 /// An irregular triangulated sheet in the y = 0 plane centred on the origin, `size[0]` along x by
 /// `size[1]` along z, with target edge length `edge`. Normals point +y.
@@ -32,10 +30,15 @@ pub fn delaunay_sheet(size: [f64; 2], edge: f64) -> Result<TriMesh, MeshError> {
     }
     let max_area = 3f64.sqrt() / 4.0 * edge * edge;
     let estimate = size[0] * size[1] / max_area;
-    if estimate > MAX_VERTICES {
+    // The interior (area) and the boundary (perimeter) each bound the vertex count from below.
+    let boundary_points = 2.0 * (size[0] + size[1]) / edge;
+    if estimate.max(boundary_points) > MAX_VERTICES as f64 {
         return Err(MeshError::BadParameter {
             name: "edge",
-            reason: format!("{edge} is too small for a {size:?} sheet (≈{estimate:.0} vertices)"),
+            reason: format!(
+                "{edge} is too small for a {size:?} sheet (≈{:.0} vertices, at most {MAX_VERTICES})",
+                estimate.max(boundary_points)
+            ),
         });
     }
     let bad = |e: &dyn std::fmt::Display| MeshError::BadParameter {
@@ -90,16 +93,12 @@ pub fn delaunay_sheet(size: [f64; 2], edge: f64) -> Result<TriMesh, MeshError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::vertex_normals;
 
     fn check_sheet(m: &TriMesh, size: [f64; 2]) {
         let p = m.positions();
         for t in m.triangles() {
             let n = (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]);
             assert!(n.y > 0.0 && n.x == 0.0 && n.z == 0.0, "triangle {t:?} normal {n}");
-        }
-        for n in vertex_normals(p, m.triangles()) {
-            assert!((n - DVec3::Y).length() < 1e-12);
         }
         let area: f64 = m.triangle_areas().iter().sum();
         assert!((area - size[0] * size[1]).abs() < 1e-12 * size[0] * size[1], "area {area}");
@@ -151,5 +150,7 @@ mod tests {
         assert!(delaunay_sheet([1.0, 1.0], -0.1).is_err());
         assert!(delaunay_sheet([1.0, 1.0], f64::INFINITY).is_err());
         assert!(delaunay_sheet([1.0, 1.0], 1e-6).is_err());
+        // A thin sheet has a small area but a long boundary: refused before the boundary is allocated.
+        assert!(matches!(delaunay_sheet([1e6, 1e-9], 1e-3), Err(MeshError::BadParameter { name: "edge", .. })));
     }
 }

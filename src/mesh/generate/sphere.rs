@@ -4,6 +4,7 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
+use super::vertex_budget;
 use crate::mesh::{MeshError, TriMesh};
 
 /// Unit directions of a geodesic sphere and its outward-wound triangles (see [`icosphere`]).
@@ -12,10 +13,7 @@ pub(crate) fn unit_icosphere(frequency: usize) -> Result<(Vec<DVec3>, Vec<[usize
     if f == 0 {
         return Err(MeshError::BadParameter { name: "frequency", reason: "must be at least 1".into() });
     }
-    // Keep the vertex count (10 f² + 2) far from overflow and memory exhaustion.
-    if f > 4096 {
-        return Err(MeshError::BadParameter { name: "frequency", reason: format!("{f} is too large (max 4096)") });
-    }
+    let count = vertex_budget("frequency", f.checked_mul(f).and_then(|f2| f2.checked_mul(10)).map(|n| n + 2))?;
     let t = (1.0 + 5f64.sqrt()) / 2.0;
     let corners = [
         [-1.0, t, 0.0],
@@ -55,7 +53,7 @@ pub(crate) fn unit_icosphere(frequency: usize) -> Result<(Vec<DVec3>, Vec<[usize
         [9, 8, 1],
     ];
     let mut positions: Vec<DVec3> = corners.to_vec();
-    positions.reserve(10 * f * f + 2 - 12);
+    positions.reserve(count - 12);
     // Points strictly inside each icosahedron edge, stored once, ordered from the lower corner index.
     let mut edge_points: HashMap<(usize, usize), usize> = HashMap::with_capacity(30);
     let mut triangles = Vec::with_capacity(20 * f * f);
@@ -123,7 +121,7 @@ fn check_radius(radius: f64) -> Result<(), MeshError> {
 /// A geodesic sphere of `radius` centred on the origin: every face of an icosahedron split into
 /// `frequency²` triangles and projected onto the sphere. Vertices are shared across faces by index
 /// bookkeeping (no float welding), giving `10·frequency² + 2` vertices and `20·frequency²` triangles,
-/// wound counter-clockwise seen from outside.
+/// wound counter-clockwise seen from outside. At most [`super::MAX_VERTICES`] vertices (frequency 632).
 pub fn icosphere(radius: f64, frequency: usize) -> Result<TriMesh, MeshError> {
     check_radius(radius)?;
     let (dirs, triangles) = unit_icosphere(frequency)?;
@@ -136,7 +134,7 @@ pub fn icosphere(radius: f64, frequency: usize) -> Result<TriMesh, MeshError> {
 /// `2·(rings − 1)·sectors` triangles, wound counter-clockwise seen from outside.
 ///
 /// Vertex 0 is the north pole (+y), then ring by ring from the north, each ring starting on +x,
-/// and the south pole last.
+/// and the south pole last. At most [`super::MAX_VERTICES`] vertices.
 pub fn uv_sphere(radius: f64, rings: usize, sectors: usize) -> Result<TriMesh, MeshError> {
     check_radius(radius)?;
     if rings < 2 {
@@ -145,10 +143,8 @@ pub fn uv_sphere(radius: f64, rings: usize, sectors: usize) -> Result<TriMesh, M
     if sectors < 3 {
         return Err(MeshError::BadParameter { name: "sectors", reason: format!("need at least 3, got {sectors}") });
     }
-    if rings.saturating_mul(sectors) > 1 << 26 {
-        return Err(MeshError::BadParameter { name: "rings", reason: "rings × sectors is too large".into() });
-    }
-    let mut positions = Vec::with_capacity((rings - 1) * sectors + 2);
+    let count = (rings - 1).checked_mul(sectors).and_then(|n| n.checked_add(2));
+    let mut positions = Vec::with_capacity(vertex_budget("rings", count)?);
     positions.push(DVec3::Y * radius);
     for k in 1..rings {
         let (st, ct) = (std::f64::consts::PI * k as f64 / rings as f64).sin_cos();
@@ -180,7 +176,6 @@ pub fn uv_sphere(radius: f64, rings: usize, sectors: usize) -> Result<TriMesh, M
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::vertex_normals;
 
     fn euler(m: &TriMesh) -> isize {
         m.vertex_count() as isize - m.topology().edges.len() as isize + m.triangles().len() as isize
@@ -191,9 +186,6 @@ mod tests {
         assert_eq!(euler(m), 2);
         for p in m.positions() {
             assert!((p.length() - radius).abs() < 1e-12 * radius);
-        }
-        for (n, p) in vertex_normals(m.positions(), m.triangles()).iter().zip(m.positions()) {
-            assert!(n.dot(p.normalize()) > 0.9, "normal {n} at {p} should point outward");
         }
         // Every face outward, not just on average.
         for t in m.triangles() {
@@ -253,6 +245,11 @@ mod tests {
         assert!(uv_sphere(1.0, 1, 8).is_err());
         assert!(uv_sphere(1.0, 4, 2).is_err());
         assert!(uv_sphere(f64::INFINITY, 4, 8).is_err());
-        assert!(uv_sphere(1.0, usize::MAX, usize::MAX).is_err());
+        for (rings, sectors) in [(usize::MAX, usize::MAX), (2001, 2001), (3, usize::MAX / 2 + 1)] {
+            assert!(matches!(uv_sphere(1.0, rings, sectors), Err(MeshError::BadParameter { name: "rings", .. })));
+        }
+        for f in [633, 1 << 31, usize::MAX] {
+            assert!(matches!(icosphere(1.0, f), Err(MeshError::BadParameter { name: "frequency", .. })), "{f}");
+        }
     }
 }

@@ -177,9 +177,9 @@ mod tests {
         let mesh = grid([1.0, 0.3], [12, 2]).unwrap(); // 39 vertices: four full chunks and one of 7
         let n = mesh.vertex_count();
         assert_ne!(n % LANES, 0);
-        let shapes: Vec<Vec<DVec3>> = (0..3)
+        let shapes: Vec<Vec<DVec3>> = (0..3i32)
             .map(|j| {
-                let s = |p: DVec3| ((j + 1) as f64 * (p.x + 0.5)).powi(j as i32 + 2);
+                let s = |p: DVec3| ((j + 1) as f64 * (p.x + 0.5)).powi(j + 2);
                 mesh.positions().iter().map(|p| DVec3::new(0.1 * s(*p), s(*p), 0.3 * p.y * s(*p))).collect()
             })
             .collect();

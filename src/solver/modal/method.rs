@@ -2,18 +2,21 @@
 //!
 //! Stiffness, density and mode-count changes recompute the modes on a background thread; the step
 //! loop keeps running on the old basis meanwhile and swaps the new one in when it is ready, carrying
-//! the state over by projection. Analyses are cached on disk ([`super::cache`]).
+//! the state over by projection. Analyses are cached on disk ([`super::cache`]). An edit made while
+//! an analysis runs supersedes it: the old run stops at its next stage ([`super::supersede`]), and a
+//! new run starts after a short pause so a burst of edits costs one analysis.
 
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::mpsc::{Receiver, TryRecvError};
 use std::sync::{Arc, mpsc};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use glam::DVec3;
 
 use super::cache::Cache;
 use super::compute::{ModalAnalysis, ModalProblem, analyse};
 use super::dynamics::{ModalDynamics, ModalParams};
+use super::supersede::{Generation, unless_superseded};
 use crate::energy::ShellStiffness;
 use crate::mesh::TriMesh;
 use crate::scene::Setup;
@@ -132,7 +135,11 @@ pub struct ModalSolver {
     drags: DragSet,
     steps: u64,
     pending: Option<Pending>,
+    generation: Generation,
 }
+
+/// How long a background analysis waits for further edits before it starts.
+const SETTLE: Duration = Duration::from_millis(200);
 
 impl ModalSolver {
     /// Build from a scene (computing or loading the modes synchronously), caching analyses in the
@@ -154,7 +161,8 @@ impl ModalSolver {
             stiffness: ShellStiffness::from(m),
             modes: s.modes,
         };
-        let analysis = request.run(&|_| {})?;
+        let method = if warp { MWTS.name } else { LMA.name };
+        let analysis = request.run(&|_| {}).map_err(|e| named(e, method))?;
         let params = ModalParams {
             step: PARAMS[8].check(s.step.unwrap_or(1.0 / 30.0))?,
             alpha: s.rayleigh_alpha,
@@ -162,7 +170,7 @@ impl ModalSolver {
             constraint_damping: 1e-2,
         };
         let mut solver = Self {
-            method: if warp { MWTS.name } else { LMA.name },
+            method,
             dynamics: ModalDynamics::new(analysis.basis.clone(), setup.mesh.positions().to_vec(), Vec::new(), warp),
             request,
             loads: setup.loads.clone(),
@@ -172,6 +180,7 @@ impl ModalSolver {
             drags: DragSet::new(setup.mesh.vertex_count(), true),
             steps: 0,
             pending: None,
+            generation: Generation::default(),
         };
         solver.update_forces();
         Ok(solver)
@@ -193,9 +202,13 @@ impl ModalSolver {
         let (tx, rx) = mpsc::channel();
         let progress = Arc::new(AtomicU32::new(0));
         let (request, p) = (self.request.clone(), progress.clone());
+        let ticket = self.generation.next();
         std::thread::spawn(move || {
+            std::thread::sleep(SETTLE);
             let report = move |f: f32| p.store(f.to_bits(), Ordering::Relaxed);
-            let _ = tx.send(request.run(&report));
+            if let Some(result) = unless_superseded(&ticket, &report, |report| request.run(report)) {
+                let _ = tx.send(result);
+            }
         });
         self.pending = Some(Pending { receiver: rx, progress });
     }
@@ -221,7 +234,7 @@ impl ModalSolver {
     /// Carry the state over to a finished analysis (or report why it failed).
     fn swap(&mut self, result: Result<ModalAnalysis, SolverError>) -> Result<(), SolverError> {
         self.pending = None;
-        let analysis = result?;
+        let analysis = result.map_err(|e| named(e, self.method))?;
         let masses = self.request.masses();
         self.dynamics.replace_basis(analysis.basis.clone(), &masses);
         self.analysis = analysis;
@@ -231,6 +244,14 @@ impl ModalSolver {
 
 fn stopped() -> SolverError {
     SolverError::Numerical("the background modal analysis stopped".into())
+}
+
+/// The modal analysis reports itself as method `modal`: name the method the user chose instead.
+fn named(e: SolverError, method: &'static str) -> SolverError {
+    match e {
+        SolverError::Unsuitable { reason, .. } => SolverError::Unsuitable { method, reason },
+        e => e,
+    }
 }
 
 impl Solver for ModalSolver {
@@ -264,6 +285,7 @@ impl Solver for ModalSolver {
             energy,
             residual: 0.0,
             iterations: 0,
+            ..StepStats::default()
         })
     }
 
@@ -329,5 +351,20 @@ impl Solver for ModalSolver {
             label: format!("computing {} modes", self.request.modes),
             fraction: f32::from_bits(p.progress.load(Ordering::Relaxed)),
         })
+    }
+
+    fn poll(&mut self) -> Result<(), SolverError> {
+        self.poll_pending()
+    }
+
+    fn info(&self) -> Vec<(&'static str, f64)> {
+        vec![("active modes", self.analysis.basis.modes() as f64)]
+    }
+}
+
+impl Drop for ModalSolver {
+    fn drop(&mut self) {
+        // A background analysis of a solver that is gone is pointless: stop it.
+        self.generation.cancel_all();
     }
 }

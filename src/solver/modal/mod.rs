@@ -7,4 +7,5 @@ pub mod dynamics;
 pub mod kernel;
 pub mod method;
 pub mod rotation;
+pub mod supersede;
 pub mod warp;

@@ -1,0 +1,20 @@
+//! Rigid bodies that cloth collides with: spheres, planes and closed triangle meshes, each placed by
+//! a scripted motion (constant velocity, oscillation, spin). A query gives the signed distance,
+//! outward normal and the body's surface velocity at a point — what contact handling needs.
+
+mod body;
+mod mesh_distance;
+
+pub use body::{Body, Contact, Motion, Placed, Shape};
+pub use mesh_distance::MeshDistance;
+
+/// Why a body could not be made.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum CollisionError {
+    /// A mesh collider must be closed so that inside and outside are defined.
+    #[error("a collider mesh must be closed, but this one has {boundary_edges} boundary edges")]
+    OpenMesh {
+        /// Number of edges with a single triangle.
+        boundary_edges: usize,
+    },
+}

@@ -1,0 +1,433 @@
+//! `cloth` and `cloth-quad`: the implicit particle cloth stepped by backward Euler, linearised once
+//! per step and solved by the filtered PCG, with anchors, drags and body contacts as constraints.
+
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::contact::{ContactParams, ContactState, Contacts};
+use super::graph::SpringGraph;
+use super::system::{ClothSystem, SpringParams};
+use crate::collision::Body;
+use crate::linalg::filtered_pcg::{self, Constraint, PcgReport, Stop};
+use crate::scene::{MeshSource, Setup};
+use crate::solver::registry::Method;
+use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Solver, SolverError, StepStats, check_finite};
+
+/// Registry entry of the triangle-mesh cloth (Noh & Jung).
+pub const CLOTH: Method = Method {
+    name: "cloth",
+    summary: "implicit particle cloth on triangle meshes: stretch + buckling springs, valence weights, filtered PCG, contact with friction",
+    build: |setup| Ok(Box::new(Cloth::new(setup, Variant::Triangles)?)),
+};
+
+/// Registry entry of Choi & Ko's original on a regular quad grid.
+pub const CLOTH_QUAD: Method = Method {
+    name: "cloth-quad",
+    summary: "Choi & Ko's particle cloth on a regular grid (first and second neighbours); needs a `grid` mesh",
+    build: |setup| Ok(Box::new(Cloth::new(setup, Variant::Quads)?)),
+};
+
+/// Which neighbour structure.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Variant {
+    /// Edge and diagonal neighbours of a triangle mesh, with valence weights.
+    Triangles,
+    /// First and second neighbours of a regular grid, no weights.
+    Quads,
+}
+
+const fn spec(name: &'static str, label: &'static str, unit: &'static str, help: &'static str, max: f64) -> ParamSpec {
+    ParamSpec { name, label, unit, help, min: 0.0, max, log_scale: true, integer: false }
+}
+
+/// The parameters of both cloth methods, in panel order.
+const PARAMS: [ParamSpec; 12] = [
+    spec("k_s", "stretch stiffness k_s", "N/m", "Edge springs: resist stretch only (per spring).", 1e7),
+    spec(
+        "k_b",
+        "bending rigidity k_b",
+        "N·m",
+        "Diagonal springs: bending rigidity per unit width (a spring gets k_b × the width it stands for).",
+        1e3,
+    ),
+    spec(
+        "c_b",
+        "buckling linear branch c_b",
+        "N/m",
+        "Diagonal springs near rest: c_b (|x| − L), used until buckling pushes harder; about k_s.",
+        1e7,
+    ),
+    spec("k_d", "spring damping k_d", "N·s/m", "Damping of the relative velocity of every connected pair.", 1e3),
+    ParamSpec {
+        log_scale: false,
+        ..spec("mu_s", "static friction μ_s", "", "A contact sticks while tangential force ≤ μ_s × normal force.", 10.0)
+    },
+    ParamSpec {
+        log_scale: false,
+        ..spec(
+            "mu_k",
+            "kinetic friction μ_k",
+            "",
+            "A sliding contact feels μ_k × normal force against its motion.",
+            10.0,
+        )
+    },
+    ParamSpec { min: 1e-6, ..spec("density", "density", "kg/m²", "Surface density; lumped to particles.", 1e4) },
+    ParamSpec {
+        min: -1e3,
+        log_scale: false,
+        ..spec("gravity_y", "gravity y", "m/s²", "Vertical gravity (x and z from the scene).", 1e3)
+    },
+    ParamSpec { min: 1e-5, ..spec("step", "time step", "s", "Backward Euler step (the paper: 0.01 s).", 0.1) },
+    ParamSpec {
+        min: 1.0,
+        log_scale: false,
+        integer: true,
+        ..spec("iterations", "PCG iterations", "", "Cap on PCG iterations per step.", 1e5)
+    },
+    ParamSpec {
+        min: 1e-14,
+        ..spec("tolerance", "PCG tolerance", "", "Stop when the preconditioned residual falls by this factor.", 1.0)
+    },
+    ParamSpec {
+        min: 1e-6,
+        ..spec("margin", "contact margin", "m", "Distance to a body within which a particle is locked to it.", 1.0)
+    },
+];
+
+/// One step's linear system `A Δv = b` (with `A` applied by [`ClothSystem::apply`]).
+#[derive(Debug, Clone)]
+pub struct LinearStep {
+    /// The right side `b`.
+    pub rhs: Vec<DVec3>,
+    /// Block-Jacobi inverse of `A`.
+    pub preconditioner: Vec<glam::DMat3>,
+    /// Anchors, drags and contacts.
+    pub constraints: Vec<Constraint>,
+    /// The PCG's [`Stop::floor`]: `Σ m̃ (0.1 m/s)²`, so that near rest the velocity error is bounded
+    /// by the tolerance times 0.1 m/s (a typical speed of moving cloth) rather than chased to ever
+    /// smaller absolute values.
+    pub error_floor: f64,
+}
+
+/// The largest growth of a stretch spring's strain in one step that is accepted (see [`Cloth::advance`]).
+const STRAIN_JUMP: f64 = 0.05;
+
+/// How many times a step may be halved.
+const MAX_HALVINGS: u32 = 4;
+
+/// The reference speed of [`LinearStep::error_floor`], m/s.
+const VELOCITY_FLOOR: f64 = 0.1;
+
+/// Default contact margin, m.
+const DEFAULT_MARGIN: f64 = 0.005;
+
+/// The cloth solver.
+#[derive(Debug, Clone)]
+pub struct Cloth {
+    method: &'static str,
+    system: ClothSystem,
+    contacts: Contacts,
+    bodies: Vec<Body>,
+    contact: ContactParams,
+    rest: Vec<DVec3>,
+    x: Vec<DVec3>,
+    v: Vec<DVec3>,
+    /// Last step's velocity change (PCG warm start).
+    dv: Vec<DVec3>,
+    anchored: Vec<bool>,
+    gravity: DVec3,
+    density: f64,
+    h: f64,
+    iterations: u32,
+    tolerance: f64,
+    drags: DragSet,
+    steps: u64,
+    time: f64,
+    energy_limit: f64,
+}
+
+impl Cloth {
+    /// Build from a realised scene (material `k_s`, `k_b`, `c_b`, `k_d`, `mu_s`, `mu_k`, `density`;
+    /// solver `step` (default 0.01 s), `iterations`, `tolerance`, `margin`).
+    pub fn new(setup: &Setup, variant: Variant) -> Result<Self, SolverError> {
+        let m = &setup.scene.material;
+        let s = &setup.scene.solver;
+        let method = match variant {
+            Variant::Triangles => CLOTH.name,
+            Variant::Quads => CLOTH_QUAD.name,
+        };
+        let graph = match (variant, &setup.scene.mesh) {
+            (Variant::Triangles, _) => SpringGraph::triangle_mesh(&setup.mesh, m.density),
+            (Variant::Quads, MeshSource::Grid { segments, .. }) => {
+                let p = setup.mesh.positions();
+                let [nx, nz] = *segments;
+                let (dx, dz) = ((p[nz + 1] - p[0]).length(), (p[1] - p[0]).length());
+                SpringGraph::quad_grid(p, [nx, nz], [dx, dz], m.density)
+            }
+            (Variant::Quads, _) => {
+                return Err(SolverError::Unsuitable { method, reason: "it needs a regular `grid` mesh".into() });
+            }
+        };
+        let check = |name: &str, value: f64| -> Result<f64, SolverError> {
+            ParamSpec::find(method, &PARAMS, name)?.check(value)
+        };
+        let params = SpringParams {
+            k_s: check("k_s", m.k_s)?,
+            k_b: check("k_b", m.k_b)?,
+            c_b: check("c_b", m.c_b)?,
+            k_d: check("k_d", m.k_d)?,
+        };
+        let contact = ContactParams {
+            margin: check("margin", s.margin.unwrap_or(DEFAULT_MARGIN))?,
+            mu_s: check("mu_s", m.mu_s)?,
+            mu_k: check("mu_k", m.mu_k)?,
+        };
+        let h = check("step", s.step.unwrap_or(0.01))?;
+        let iterations = check("iterations", s.iterations as f64)? as u32;
+        let tolerance = check("tolerance", s.tolerance)?;
+        let density = check("density", m.density)?;
+        let rest = setup.mesh.positions().to_vec();
+        let n = rest.len();
+        let total_mass: f64 = graph.masses.iter().sum();
+        let (lo, hi) = setup.mesh.bounding_box();
+        let size = (hi - lo).length();
+        // Energies a million times what gravity could release over ten times the cloth's size mean divergence.
+        let energy_limit = 1e6 * (total_mass * setup.gravity().length().max(9.81) * 10.0 * size).max(1e-3);
+        Ok(Self {
+            method,
+            system: ClothSystem::new(graph, params),
+            contacts: Contacts::new(n),
+            bodies: setup.bodies.clone(),
+            contact,
+            x: rest.clone(),
+            v: vec![DVec3::ZERO; n],
+            dv: vec![DVec3::ZERO; n],
+            rest,
+            anchored: setup.anchored_mask(),
+            gravity: setup.gravity(),
+            density,
+            h,
+            iterations,
+            tolerance,
+            drags: DragSet::new(n, false),
+            steps: 0,
+            time: 0.0,
+            energy_limit,
+        })
+    }
+
+    /// Contact state of every particle.
+    pub fn contact_states(&self) -> &[ContactState] {
+        self.contacts.states()
+    }
+
+    /// The deepest penetration into a body seen at the start of any step since the last reset, m (≤ 0).
+    pub fn deepest_penetration(&self) -> f64 {
+        self.contacts.deepest
+    }
+
+    /// Current velocities, m/s.
+    pub fn velocities(&self) -> &[DVec3] {
+        &self.v
+    }
+
+    /// Kinetic energy `½ Σ m |v|²` with the particles' true masses, J.
+    pub fn kinetic_energy(&self) -> f64 {
+        0.5 * self.v.iter().zip(&self.system.graph().masses).map(|(v, m)| m * v.length_squared()).sum::<f64>()
+    }
+
+    /// The spring system, linearised at the state of the last [`Cloth::linearise`].
+    pub fn system(&self) -> &ClothSystem {
+        &self.system
+    }
+
+    /// Linearise the next step at the current state: forces, constraints (anchors, drags, contacts,
+    /// with the contact states advanced to this step) and the right side. [`Solver::step`] solves it.
+    pub fn linearise(&mut self) -> LinearStep {
+        self.linearise_for(self.h)
+    }
+
+    fn linearise_for(&mut self, h: f64) -> LinearStep {
+        let n = self.x.len();
+        let mut force = vec![DVec3::ZERO; n];
+        self.system.linearise(&self.x, &self.v, self.gravity, h, &mut force);
+        let mut constraints = Vec::new();
+        let mut held = vec![false; n];
+        self.hold(h, &mut held, &mut constraints);
+        self.contacts.constrain(
+            &self.bodies,
+            self.contact,
+            (&self.x, &self.v, &held),
+            (self.time, h),
+            self.system.scaled_masses(),
+            &mut force,
+            &mut constraints,
+        );
+        LinearStep {
+            error_floor: self.system.scaled_masses().iter().sum::<f64>() * VELOCITY_FLOOR * VELOCITY_FLOOR,
+            rhs: self.system.rhs(&force, &self.v),
+            preconditioner: self.system.block_jacobi(),
+            constraints,
+        }
+    }
+
+    /// Advance by `h`: one linearised backward Euler step, or — if a stretch spring's strain grew by
+    /// more than [`STRAIN_JUMP`] in it, which means the linearisation at the start missed the
+    /// geometry (a fast particle stopped by a contact while its neighbours sweep past it) — two steps
+    /// of `h/2`, up to [`MAX_HALVINGS`] times (Baraff & Witkin 1998, §5).
+    fn advance(&mut self, h: f64, halvings: u32) -> PcgReport {
+        let saved = (halvings < MAX_HALVINGS)
+            .then(|| (self.x.clone(), self.v.clone(), self.dv.clone(), self.contacts.clone(), self.time));
+        let report = self.single_step(h);
+        let Some((x, v, dv, contacts, time)) = saved else { return report };
+        if self.system.strain_jump(&self.x) <= STRAIN_JUMP {
+            return report;
+        }
+        (self.x, self.v, self.contacts, self.time) = (x, v, contacts, time);
+        self.dv = dv.iter().map(|d| *d * 0.5).collect();
+        let first = self.advance(0.5 * h, halvings + 1);
+        let second = self.advance(0.5 * h, halvings + 1);
+        PcgReport {
+            iterations: report.iterations + first.iterations + second.iterations,
+            residual: first.residual.max(second.residual),
+            relative_residual: first.relative_residual.max(second.relative_residual),
+            converged: first.converged && second.converged,
+        }
+    }
+
+    /// One linearised backward Euler step of `h`, solved by the filtered PCG.
+    fn single_step(&mut self, h: f64) -> PcgReport {
+        let step = self.linearise_for(h);
+        let system = &self.system;
+        let mut residual = vec![DVec3::ZERO; self.x.len()];
+        let report = filtered_pcg::solve(
+            &mut |x, y| system.apply(x, y),
+            &step.preconditioner,
+            &step.constraints,
+            &step.rhs,
+            &mut self.dv,
+            Stop { tolerance: self.tolerance, floor: step.error_floor, max_iterations: self.iterations },
+            &mut residual,
+        );
+        self.contacts.update(self.contact, &residual, h);
+        for ((x, v), dv) in self.x.iter_mut().zip(&mut self.v).zip(&self.dv) {
+            *v += *dv;
+            *x += *v * h;
+        }
+        self.time += h;
+        report
+    }
+
+    /// Anchors and drags (reached at the end of a step of `h`) as constraints; marks held particles.
+    fn hold(&self, h: f64, held: &mut [bool], constraints: &mut Vec<Constraint>) {
+        held.copy_from_slice(&self.anchored);
+        for (i, _) in self.anchored.iter().enumerate().filter(|(_, a)| **a) {
+            constraints.push(Constraint { particle: i, filter: glam::DMat3::ZERO, z: -self.v[i] });
+        }
+        for (_, d) in self.drags.iter() {
+            if let DragKind::Position(target) = d.kind {
+                let i = d.vertex;
+                if !held[i] {
+                    held[i] = true;
+                    let z = (target - self.x[i]) / h - self.v[i];
+                    constraints.push(Constraint { particle: i, filter: glam::DMat3::ZERO, z });
+                }
+            }
+        }
+    }
+}
+
+impl Solver for Cloth {
+    fn method(&self) -> &'static str {
+        self.method
+    }
+
+    fn time_step(&self) -> f64 {
+        self.h
+    }
+
+    fn step(&mut self) -> Result<StepStats, SolverError> {
+        let start = Instant::now();
+        let report = self.advance(self.h, 0);
+        self.steps += 1;
+        let energy = self.system.energy(&self.x, &self.v, &self.rest, self.gravity);
+        check_finite(self.steps, self.time, &self.x, energy, self.energy_limit)?;
+        Ok(StepStats {
+            wall_seconds: start.elapsed().as_secs_f64(),
+            sim_time: self.time,
+            energy,
+            residual: report.residual,
+            iterations: report.iterations,
+            relative_residual: report.relative_residual,
+            converged: report.converged,
+        })
+    }
+
+    fn positions(&self) -> &[DVec3] {
+        &self.x
+    }
+
+    fn reset(&mut self) {
+        self.x.clone_from(&self.rest);
+        self.v.fill(DVec3::ZERO);
+        self.dv.fill(DVec3::ZERO);
+        self.contacts.reset();
+        self.steps = 0;
+        self.time = 0.0;
+    }
+
+    fn params(&self) -> Vec<ParamValue> {
+        let p = self.system.params();
+        let values = [
+            p.k_s,
+            p.k_b,
+            p.c_b,
+            p.k_d,
+            self.contact.mu_s,
+            self.contact.mu_k,
+            self.density,
+            self.gravity.y,
+            self.h,
+            f64::from(self.iterations),
+            self.tolerance,
+            self.contact.margin,
+        ];
+        PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect()
+    }
+
+    fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
+        let value = ParamSpec::find(self.method, &PARAMS, name)?.check(value)?;
+        let mut p = self.system.params();
+        match name {
+            "k_s" => p.k_s = value,
+            "k_b" => p.k_b = value,
+            "c_b" => p.c_b = value,
+            "k_d" => p.k_d = value,
+            "mu_s" => self.contact.mu_s = value,
+            "mu_k" => self.contact.mu_k = value,
+            "density" => {
+                self.system.scale_masses(value / self.density);
+                self.density = value;
+            }
+            "gravity_y" => self.gravity.y = value,
+            "step" => self.h = value,
+            "iterations" => self.iterations = value as u32,
+            "tolerance" => self.tolerance = value,
+            _ => self.contact.margin = value,
+        }
+        if p != self.system.params() {
+            self.system.set_params(p);
+        }
+        Ok(())
+    }
+
+    fn drags(&self) -> &DragSet {
+        &self.drags
+    }
+
+    fn drags_mut(&mut self) -> &mut DragSet {
+        &mut self.drags
+    }
+}

@@ -1,0 +1,125 @@
+//! Abandoning background analyses that a newer request has made pointless.
+//!
+//! Every parameter edit of a modal solver starts a new analysis; only the latest one matters. Each
+//! request takes a number from a shared [`Generation`] counter; a run whose number is no longer the
+//! latest stops before it starts and at every progress report of the analysis (the analysis has no
+//! other exit between its stages, so the stop unwinds out of it with a private payload that
+//! [`unless_superseded`] catches; every other panic passes through untouched).
+
+use std::panic::{AssertUnwindSafe, catch_unwind, resume_unwind};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// A shared request counter: the newest ticket is the only current one.
+#[derive(Debug, Clone, Default)]
+pub struct Generation(Arc<AtomicU64>);
+
+/// One request's number, checked against its [`Generation`].
+#[derive(Debug, Clone)]
+pub struct Ticket {
+    generation: Generation,
+    number: u64,
+}
+
+impl Generation {
+    /// A new request; every earlier ticket becomes superseded.
+    pub fn next(&self) -> Ticket {
+        let number = self.0.fetch_add(1, Ordering::SeqCst) + 1;
+        Ticket { generation: self.clone(), number }
+    }
+
+    /// Supersede every ticket issued so far (e.g. when the owner goes away).
+    pub fn cancel_all(&self) {
+        self.0.fetch_add(1, Ordering::SeqCst);
+    }
+}
+
+impl Ticket {
+    /// Whether no newer request has been made.
+    pub fn is_current(&self) -> bool {
+        self.generation.0.load(Ordering::SeqCst) == self.number
+    }
+}
+
+/// The unwind payload that stops a superseded run at its next progress report.
+struct Superseded;
+
+/// Run `work` (which reports progress through the function it is given) unless `ticket` is
+/// superseded before it starts or at one of its progress reports; reports of a current run are
+/// forwarded to `progress`. `None` when the run was abandoned.
+pub fn unless_superseded<T>(
+    ticket: &Ticket,
+    progress: &dyn Fn(f32),
+    work: impl FnOnce(&dyn Fn(f32)) -> T,
+) -> Option<T> {
+    if !ticket.is_current() {
+        return None;
+    }
+    let report = |fraction: f32| {
+        if !ticket.is_current() {
+            resume_unwind(Box::new(Superseded));
+        }
+        progress(fraction);
+    };
+    match catch_unwind(AssertUnwindSafe(|| work(&report))) {
+        Ok(result) => Some(result),
+        Err(payload) if payload.is::<Superseded>() => None,
+        Err(payload) => resume_unwind(payload),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::cell::Cell;
+
+    use super::*;
+
+    #[test]
+    fn a_current_run_completes_and_forwards_progress() {
+        let generation = Generation::default();
+        let ticket = generation.next();
+        let seen = Cell::new(0.0);
+        let result = unless_superseded(&ticket, &|f| seen.set(f), |report| {
+            report(0.5);
+            42
+        });
+        assert_eq!(result, Some(42));
+        assert_eq!(seen.get(), 0.5);
+    }
+
+    #[test]
+    fn a_run_superseded_before_it_starts_never_runs() {
+        let generation = Generation::default();
+        let old = generation.next();
+        let _new = generation.next();
+        let ran = Cell::new(false);
+        assert_eq!(unless_superseded(&old, &|_| {}, |_| ran.set(true)), None);
+        assert!(!ran.get());
+    }
+
+    #[test]
+    fn a_run_superseded_while_running_stops_at_its_next_report() {
+        let generation = Generation::default();
+        let ticket = generation.next();
+        let (stage, forwarded) = (Cell::new(0), Cell::new(0));
+        let result = unless_superseded(&ticket, &|_| forwarded.set(forwarded.get() + 1), |report| {
+            stage.set(1);
+            report(0.1);
+            generation.cancel_all(); // a newer request arrives mid-run
+            stage.set(2);
+            report(0.3);
+            stage.set(3); // the expensive rest never runs
+            report(0.9);
+        });
+        assert_eq!(result, None);
+        assert_eq!(stage.get(), 2, "stopped at the first report after being superseded");
+        assert_eq!(forwarded.get(), 1, "only the report of the current run was forwarded");
+    }
+
+    #[test]
+    fn other_panics_are_not_swallowed() {
+        let ticket = Generation::default().next();
+        let caught = catch_unwind(AssertUnwindSafe(|| unless_superseded(&ticket, &|_| {}, |_| panic!("real bug"))));
+        assert!(caught.is_err());
+    }
+}
