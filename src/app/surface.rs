@@ -130,7 +130,7 @@ impl WindowSurface {
             return Err(anyhow!("this window surface cannot be read back (no COPY_SRC), so no screenshot"));
         }
         let image = read_texture(&self.gpu, &texture.texture)?;
-        save_png(&image, out).with_context(|| format!("saving {}", out.display()))?;
+        save_png(&image, out).context("saving the screenshot")?; // the error names the file
         Ok(())
     }
 }
