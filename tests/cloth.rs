@@ -86,7 +86,7 @@ fn pcg_matches_a_direct_sparse_solve_of_the_filtered_system() {
     let stop = Stop { tolerance: 1e-14, floor: 0.0, max_iterations: 20_000 };
     let mut residual = vec![DVec3::ZERO; n];
     let report = filtered_pcg::solve(
-        &mut |x, y| system.apply(x, y),
+        system,
         &step.preconditioner,
         &step.constraints,
         &step.rhs,

@@ -17,6 +17,9 @@
 //! `∂f₀/∂x₁ = S x̂x̂ᵀ + (T/r)(I − x̂x̂ᵀ)` ([`Spring::jacobian`]). Choi & Ko keep only the longitudinal
 //! term `S x̂x̂ᵀ` for buckling springs (the transverse term `T/r < 0` would make the system indefinite);
 //! [`Spring::jacobian`] returns the exact matrix so that it can be checked against finite differences.
+//!
+//! The per-spring evaluations are `#[inline(always)]`: the cloth runs them inside kernels compiled
+//! for the CPU's best instruction set ([`crate::linalg::isa`]), which only reach inlined code.
 
 use std::sync::OnceLock;
 
@@ -37,6 +40,7 @@ pub struct Spring {
 
 impl Spring {
     /// `(tension, stiffness)`.
+    #[inline(always)]
     pub fn tension_stiffness(&self) -> (f64, f64) {
         (self.tension, self.stiffness)
     }
@@ -60,6 +64,7 @@ impl Spring {
 }
 
 /// The stretch-only edge spring at length `r` with rest length `rest` and stiffness `k_s` (N/m).
+#[inline(always)]
 pub fn stretch(r: f64, rest: f64, k_s: f64) -> Spring {
     let e = r - rest;
     if e <= 0.0 {
@@ -127,6 +132,7 @@ const KNOTS: usize = 2048;
 
 impl BucklingCurve {
     /// The shared table (built on first use).
+    #[inline(always)]
     pub fn get() -> &'static Self {
         static CURVE: OnceLock<BucklingCurve> = OnceLock::new();
         CURVE.get_or_init(|| {
@@ -141,6 +147,7 @@ impl BucklingCurve {
         })
     }
 
+    #[inline(always)]
     fn locate(u: f64) -> (usize, f64) {
         let x = u.clamp(0.0, 1.0) * KNOTS as f64;
         let k = (x.floor() as usize).min(KNOTS - 1);
@@ -148,6 +155,7 @@ impl BucklingCurve {
     }
 
     /// `(F(u), F′(u))` for `u ∈ [0, 1]` (clamped).
+    #[inline(always)]
     pub fn force(&self, u: f64) -> (f64, f64) {
         let (k, t) = Self::locate(u);
         let h = 1.0 / KNOTS as f64;
@@ -155,6 +163,7 @@ impl BucklingCurve {
     }
 
     /// `G(u) = 2 s(u)²` for `u ∈ [0, 1]` (clamped); `G′ = −F`.
+    #[inline(always)]
     pub fn energy(&self, u: f64) -> f64 {
         let (k, t) = Self::locate(u);
         let h = 1.0 / KNOTS as f64;
@@ -163,6 +172,7 @@ impl BucklingCurve {
 }
 
 /// Cubic Hermite on one interval of width `h` at local parameter `t ∈ [0, 1]`: value and derivative.
+#[inline(always)]
 fn hermite(t: f64, h: f64, y0: f64, d0: f64, y1: f64, d1: f64) -> (f64, f64) {
     let (t2, t3) = (t * t, t * t * t);
     let value = (2.0 * t3 - 3.0 * t2 + 1.0) * y0
@@ -226,6 +236,7 @@ impl Buckling {
     }
 
     /// `(tension, stiffness)` at length `r`, without the energy (the hot path of a step).
+    #[inline(always)]
     pub fn tension_stiffness(&self, r: f64) -> (f64, f64) {
         let (l, t) = (self.rest, 1.0 - r / self.rest);
         if t <= 0.0 {
@@ -240,6 +251,7 @@ impl Buckling {
     }
 
     /// The energy at length `r`: the integral of `f_b*` from the rest length.
+    #[inline(always)]
     pub fn energy(&self, r: f64) -> f64 {
         let (l, t) = (self.rest, 1.0 - r / self.rest);
         if t <= 0.0 {

@@ -19,6 +19,20 @@
 
 use glam::{DMat3, DVec3};
 
+/// A linear operator `y = A x` on per-particle vectors (symmetric positive definite on the free
+/// subspace, for [`solve`]).
+pub trait Operator {
+    /// `y = A x`.
+    fn apply(&self, x: &[DVec3], y: &mut [DVec3]);
+}
+
+impl<F: Fn(&[DVec3], &mut [DVec3])> Operator for F {
+    #[inline(always)]
+    fn apply(&self, x: &[DVec3], y: &mut [DVec3]) {
+        self(x, y)
+    }
+}
+
 /// One constrained particle: its filter `S` and prescribed velocity change `z`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Constraint {
@@ -50,12 +64,14 @@ impl Default for PcgReport {
     }
 }
 
+#[inline(always)]
 fn filter(constraints: &[Constraint], x: &mut [DVec3]) {
     for c in constraints {
         x[c.particle] = c.filter * x[c.particle];
     }
 }
 
+#[inline(always)]
 fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
     a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
 }
@@ -75,12 +91,45 @@ pub struct Stop {
     pub max_iterations: u32,
 }
 
-/// Solve with operator `apply(x, y)` (`y = A x`), block-Jacobi inverse `p_inv`, the constraints, right
+/// Solve with the operator `a`, block-Jacobi inverse `p_inv`, the constraints, right
 /// side `b` and warm start / result `dv`. `residual` receives `b − A Δv` unfiltered: on the
 /// constrained directions it is minus the constraint's impulse (updated alongside the filtered
 /// residual, so it costs no extra product with `A`).
-pub fn solve(
-    apply: &mut impl FnMut(&[DVec3], &mut [DVec3]),
+///
+/// The iteration is compiled for the best instruction set of this CPU ([`super::isa`]), with the
+/// operator inlined into it if its [`Operator::apply`] is `#[inline(always)]`.
+pub fn solve<A: Operator>(
+    a: &A,
+    p_inv: &[DMat3],
+    constraints: &[Constraint],
+    b: &[DVec3],
+    dv: &mut [DVec3],
+    stop: Stop,
+    residual: &mut [DVec3],
+) -> PcgReport {
+    /// The iteration's arguments, to run it through [`super::isa::best`].
+    struct Iterate<'a, A> {
+        a: &'a A,
+        p_inv: &'a [DMat3],
+        constraints: &'a [Constraint],
+        b: &'a [DVec3],
+        dv: &'a mut [DVec3],
+        stop: Stop,
+        residual: &'a mut [DVec3],
+    }
+    impl<A: Operator> super::isa::Kernel for Iterate<'_, A> {
+        type Output = PcgReport;
+        #[inline(always)]
+        fn run(self) -> PcgReport {
+            iterate(self.a, self.p_inv, self.constraints, self.b, self.dv, self.stop, self.residual)
+        }
+    }
+    super::isa::best(Iterate { a, p_inv, constraints, b, dv, stop, residual })
+}
+
+#[inline(always)]
+fn iterate<A: Operator>(
+    a: &A,
     p_inv: &[DMat3],
     constraints: &[Constraint],
     b: &[DVec3],
@@ -95,7 +144,7 @@ pub fn solve(
         dv[c.particle] = c.filter * dv[c.particle] + (c.z - c.filter * c.z);
     }
     let mut scratch = vec![DVec3::ZERO; n];
-    apply(&z, &mut scratch);
+    a.apply(&z, &mut scratch);
     let mut b_hat: Vec<DVec3> = b.iter().zip(&scratch).map(|(b, az)| *b - *az).collect();
     filter(constraints, &mut b_hat);
     let delta0: f64 = b_hat.iter().zip(p_inv).map(|(r, p)| r.dot(*p * *r)).sum();
@@ -104,7 +153,7 @@ pub fn solve(
         residual.iter_mut().zip(b).zip(&scratch).for_each(|((r, b), az)| *r = *b - *az);
         return PcgReport::default();
     }
-    apply(dv, &mut scratch);
+    a.apply(dv, &mut scratch);
     residual.iter_mut().zip(b).zip(&scratch).for_each(|((r, b), a)| *r = *b - *a);
     let mut r = residual.to_vec();
     filter(constraints, &mut r);
@@ -115,7 +164,7 @@ pub fn solve(
     let mut iterations = 0;
     let target = stop.tolerance * stop.tolerance * delta0.max(stop.floor);
     while delta > target && iterations < stop.max_iterations {
-        apply(&c, &mut q);
+        a.apply(&c, &mut q);
         // c = S c and S is an orthogonal projection, so cᵀ(S q) = cᵀq.
         let cq = dot(&c, &q);
         if cq <= 0.0 || !cq.is_finite() {
@@ -184,7 +233,7 @@ mod tests {
                 block.inverse()
             })
             .collect();
-        let mut apply = |x: &[DVec3], y: &mut [DVec3]| {
+        let apply = |x: &[DVec3], y: &mut [DVec3]| {
             let xv = DVector::from_iterator(3 * n, x.iter().flat_map(|v| v.to_array()));
             let yv = &a * xv;
             for (i, y) in y.iter_mut().enumerate() {
@@ -194,7 +243,7 @@ mod tests {
         let mut dv: Vec<DVec3> = (0..n).map(|i| DVec3::splat(0.1 * i as f64)).collect(); // a warm start
         let stop = Stop { tolerance: 1e-14, floor: 0.0, max_iterations: 500 };
         let mut residual = vec![DVec3::ZERO; n];
-        let report = solve(&mut apply, &p_inv, &constraints, &b, &mut dv, stop, &mut residual);
+        let report = solve(&apply, &p_inv, &constraints, &b, &mut dv, stop, &mut residual);
         assert!(report.relative_residual <= 1e-14, "{report:?}");
         // Reduced basis T: identity columns for free particles, the filter's range for constrained ones.
         let mut columns: Vec<DVector<f64>> = Vec::new();

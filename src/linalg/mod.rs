@@ -3,13 +3,15 @@
 //! the block sparsity pattern of a `3n × 3n` Hessian computed once from element stencils, numeric
 //! assembly through precomputed value slots, DOF reduction for anchored vertices, and a sparse
 //! Cholesky wrapper (faer) that factorises the pattern symbolically once, and Baraff–Witkin's
-//! filtered PCG for constrained particle systems ([`filtered_pcg`]).
+//! filtered PCG for constrained particle systems ([`filtered_pcg`]); hot loops compiled for the CPU's
+//! best instruction set ([`isa`]).
 
 mod assembly;
 mod cholesky;
 mod dofs;
 mod error;
 pub mod filtered_pcg;
+pub mod isa;
 pub mod lanczos;
 pub mod ordering;
 

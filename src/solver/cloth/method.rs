@@ -303,7 +303,7 @@ impl Cloth {
         let system = &self.system;
         let mut residual = vec![DVec3::ZERO; self.x.len()];
         let report = filtered_pcg::solve(
-            &mut |x, y| system.apply(x, y),
+            system,
             &step.preconditioner,
             &step.constraints,
             &step.rhs,

@@ -17,6 +17,8 @@ use glam::{DMat3, DVec3};
 
 use super::graph::{SpringGraph, SpringKind};
 use crate::energy::springs::{self, Buckling};
+use crate::linalg::filtered_pcg::Operator;
+use crate::linalg::isa;
 
 /// Spring stiffnesses and damping, per spring.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -118,6 +120,26 @@ impl ClothSystem {
     /// Evaluate forces at `(x, v)` with gravity `g` into `force` (scaled by `1/w`) and linearise them
     /// for a step of `h`.
     pub fn linearise(&mut self, x: &[DVec3], v: &[DVec3], g: DVec3, h: f64, force: &mut [DVec3]) {
+        struct Linearise<'a> {
+            system: &'a mut ClothSystem,
+            state: (&'a [DVec3], &'a [DVec3]),
+            g: DVec3,
+            h: f64,
+            force: &'a mut [DVec3],
+        }
+        impl isa::Kernel for Linearise<'_> {
+            type Output = ();
+            #[inline(always)]
+            fn run(self) {
+                self.system.linearise_here(self.state.0, self.state.1, self.g, self.h, self.force);
+            }
+        }
+        isa::best(Linearise { system: self, state: (x, v), g, h, force });
+    }
+
+    /// [`Self::linearise`], compiled for whatever instruction set its caller is.
+    #[inline(always)]
+    fn linearise_here(&mut self, x: &[DVec3], v: &[DVec3], g: DVec3, h: f64, force: &mut [DVec3]) {
         self.h = h;
         for (f, m) in force.iter_mut().zip(&self.scaled_mass) {
             *f = g * *m;
@@ -161,6 +183,7 @@ impl ClothSystem {
 
     /// `out += Σ_springs` of the blocks `blocks` applied to `v` as a Laplacian: `+B (vᵢ − vⱼ)` on `i`,
     /// `−B (vᵢ − vⱼ)` on `j`.
+    #[inline(always)]
     fn add_spring_product(&self, blocks: &[RankOne], v: &[DVec3], out: &mut [DVec3]) {
         for (&[i, j], g) in self.graph.pairs.iter().zip(blocks) {
             let y = g.times(v[i] - v[j]);
@@ -170,6 +193,7 @@ impl ClothSystem {
     }
 
     /// `out = A v` with the step's matrix `A = M̃ + h D + h² K`.
+    #[inline(always)]
     pub fn apply(&self, v: &[DVec3], out: &mut [DVec3]) {
         for ((o, v), m) in out.iter_mut().zip(v).zip(&self.scaled_mass) {
             *o = *v * *m;
@@ -201,20 +225,46 @@ impl ClothSystem {
 
     /// Springs' energy at `x` plus `½ Σ m̃ |v|²` minus the work of gravity `Σ m̃ g·(x − rest)`, J.
     pub fn energy(&self, x: &[DVec3], v: &[DVec3], rest: &[DVec3], g: DVec3) -> f64 {
+        struct Energy<'a> {
+            system: &'a ClothSystem,
+            state: [&'a [DVec3]; 3],
+            g: DVec3,
+        }
+        impl isa::Kernel for Energy<'_> {
+            type Output = f64;
+            #[inline(always)]
+            fn run(self) -> f64 {
+                let [x, v, rest] = self.state;
+                self.system.energy_here(x, v, rest, self.g)
+            }
+        }
+        isa::best(Energy { system: self, state: [x, v, rest], g })
+    }
+
+    /// [`Self::energy`], compiled for whatever instruction set its caller is.
+    #[inline(always)]
+    fn energy_here(&self, x: &[DVec3], v: &[DVec3], rest: &[DVec3], g: DVec3) -> f64 {
         let graph = &self.graph;
-        let mut e: f64 = (graph.pairs.iter().enumerate())
-            .map(|(s, &[i, j])| {
-                let r = (x[j] - x[i]).length();
-                match graph.kinds[s] {
-                    SpringKind::Stretch => springs::stretch(r, graph.rest[s], self.params.k_s).energy,
-                    SpringKind::Buckling => self.buckling[s].energy(r),
-                }
-            })
-            .sum();
+        // A plain loop: an iterator's `sum` is a separate function, not inlined into the kernel.
+        let mut e = 0.0;
+        for (s, &[i, j]) in graph.pairs.iter().enumerate() {
+            let r = (x[j] - x[i]).length();
+            e += match graph.kinds[s] {
+                SpringKind::Stretch => springs::stretch(r, graph.rest[s], self.params.k_s).energy,
+                SpringKind::Buckling => self.buckling[s].energy(r),
+            };
+        }
         for (((x, v), r), m) in x.iter().zip(v).zip(rest).zip(&self.scaled_mass) {
             e += 0.5 * m * v.length_squared() - m * g.dot(*x - *r);
         }
         e
+    }
+}
+
+impl Operator for ClothSystem {
+    #[inline(always)]
+    fn apply(&self, x: &[DVec3], y: &mut [DVec3]) {
+        ClothSystem::apply(self, x, y);
     }
 }
 
