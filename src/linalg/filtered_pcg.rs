@@ -107,94 +107,85 @@ pub fn solve<A: Operator>(
     stop: Stop,
     residual: &mut [DVec3],
 ) -> PcgReport {
-    /// The iteration's arguments, to run it through [`super::isa::best`].
-    struct Iterate<'a, A> {
-        a: &'a A,
-        p_inv: &'a [DMat3],
-        constraints: &'a [Constraint],
-        b: &'a [DVec3],
-        dv: &'a mut [DVec3],
-        stop: Stop,
-        residual: &'a mut [DVec3],
-    }
-    impl<A: Operator> super::isa::Kernel for Iterate<'_, A> {
-        type Output = PcgReport;
-        #[inline(always)]
-        fn run(self) -> PcgReport {
-            iterate(self.a, self.p_inv, self.constraints, self.b, self.dv, self.stop, self.residual)
-        }
-    }
     super::isa::best(Iterate { a, p_inv, constraints, b, dv, stop, residual })
 }
 
-#[inline(always)]
-fn iterate<A: Operator>(
-    a: &A,
-    p_inv: &[DMat3],
-    constraints: &[Constraint],
-    b: &[DVec3],
-    dv: &mut [DVec3],
+/// The arguments of [`solve`], run as a [`super::isa::Kernel`].
+struct Iterate<'a, A> {
+    a: &'a A,
+    p_inv: &'a [DMat3],
+    constraints: &'a [Constraint],
+    b: &'a [DVec3],
+    dv: &'a mut [DVec3],
     stop: Stop,
-    residual: &mut [DVec3],
-) -> PcgReport {
-    let n = b.len();
-    let mut z = vec![DVec3::ZERO; n];
-    for c in constraints {
-        z[c.particle] = c.z;
-        dv[c.particle] = c.filter * dv[c.particle] + (c.z - c.filter * c.z);
-    }
-    let mut scratch = vec![DVec3::ZERO; n];
-    a.apply(&z, &mut scratch);
-    let mut b_hat: Vec<DVec3> = b.iter().zip(&scratch).map(|(b, az)| *b - *az).collect();
-    filter(constraints, &mut b_hat);
-    let delta0: f64 = b_hat.iter().zip(p_inv).map(|(r, p)| r.dot(*p * *r)).sum();
-    if delta0 <= 0.0 {
-        dv.copy_from_slice(&z);
-        residual.iter_mut().zip(b).zip(&scratch).for_each(|((r, b), az)| *r = *b - *az);
-        return PcgReport::default();
-    }
-    a.apply(dv, &mut scratch);
-    residual.iter_mut().zip(b).zip(&scratch).for_each(|((r, b), a)| *r = *b - *a);
-    let mut r = residual.to_vec();
-    filter(constraints, &mut r);
-    let mut c: Vec<DVec3> = r.iter().zip(p_inv).map(|(r, p)| *p * *r).collect();
-    filter(constraints, &mut c);
-    let mut delta = dot(&r, &c);
-    let mut q = scratch;
-    let mut iterations = 0;
-    let target = stop.tolerance * stop.tolerance * delta0.max(stop.floor);
-    while delta > target && iterations < stop.max_iterations {
-        a.apply(&c, &mut q);
-        // c = S c and S is an orthogonal projection, so cᵀ(S q) = cᵀq.
-        let cq = dot(&c, &q);
-        if cq <= 0.0 || !cq.is_finite() {
-            break; // not positive definite on the free subspace (or broken input): stop where we are
+    residual: &'a mut [DVec3],
+}
+
+impl<A: Operator> super::isa::Kernel for Iterate<'_, A> {
+    type Output = PcgReport;
+
+    #[inline(always)]
+    fn run(self) -> PcgReport {
+        let Self { a, p_inv, constraints, b, dv, stop, residual } = self;
+        let n = b.len();
+        let mut z = vec![DVec3::ZERO; n];
+        for c in constraints {
+            z[c.particle] = c.z;
+            dv[c.particle] = c.filter * dv[c.particle] + (c.z - c.filter * c.z);
         }
-        let alpha = delta / cq;
-        residual.iter_mut().zip(&q).for_each(|(r, q)| *r -= *q * alpha);
-        filter(constraints, &mut q);
-        let mut next = 0.0;
-        for i in 0..n {
-            dv[i] += c[i] * alpha;
-            r[i] -= q[i] * alpha;
-            // s = P⁻¹ r, kept in q (no longer needed this iteration).
-            q[i] = p_inv[i] * r[i];
-            next += r[i].dot(q[i]);
+        let mut scratch = vec![DVec3::ZERO; n];
+        a.apply(&z, &mut scratch);
+        let mut b_hat: Vec<DVec3> = b.iter().zip(&scratch).map(|(b, az)| *b - *az).collect();
+        filter(constraints, &mut b_hat);
+        let delta0: f64 = b_hat.iter().zip(p_inv).map(|(r, p)| r.dot(*p * *r)).sum();
+        if delta0 <= 0.0 {
+            dv.copy_from_slice(&z);
+            residual.iter_mut().zip(b).zip(&scratch).for_each(|((r, b), az)| *r = *b - *az);
+            return PcgReport::default();
         }
-        let beta = next / delta;
-        for i in 0..n {
-            c[i] = q[i] + c[i] * beta;
-        }
+        a.apply(dv, &mut scratch);
+        residual.iter_mut().zip(b).zip(&scratch).for_each(|((r, b), a)| *r = *b - *a);
+        let mut r = residual.to_vec();
+        filter(constraints, &mut r);
+        let mut c: Vec<DVec3> = r.iter().zip(p_inv).map(|(r, p)| *p * *r).collect();
         filter(constraints, &mut c);
-        delta = next;
-        iterations += 1;
-    }
-    let delta = delta.max(0.0);
-    PcgReport {
-        iterations,
-        residual: delta.sqrt(),
-        relative_residual: (delta / delta0).sqrt(),
-        converged: delta <= target,
+        let mut delta = dot(&r, &c);
+        let mut q = scratch;
+        let mut iterations = 0;
+        let target = stop.tolerance * stop.tolerance * delta0.max(stop.floor);
+        while delta > target && iterations < stop.max_iterations {
+            a.apply(&c, &mut q);
+            // c = S c and S is an orthogonal projection, so cᵀ(S q) = cᵀq.
+            let cq = dot(&c, &q);
+            if cq <= 0.0 || !cq.is_finite() {
+                break; // not positive definite on the free subspace (or broken input): stop where we are
+            }
+            let alpha = delta / cq;
+            residual.iter_mut().zip(&q).for_each(|(r, q)| *r -= *q * alpha);
+            filter(constraints, &mut q);
+            let mut next = 0.0;
+            for i in 0..n {
+                dv[i] += c[i] * alpha;
+                r[i] -= q[i] * alpha;
+                // s = P⁻¹ r, kept in q (no longer needed this iteration).
+                q[i] = p_inv[i] * r[i];
+                next += r[i].dot(q[i]);
+            }
+            let beta = next / delta;
+            for i in 0..n {
+                c[i] = q[i] + c[i] * beta;
+            }
+            filter(constraints, &mut c);
+            delta = next;
+            iterations += 1;
+        }
+        let delta = delta.max(0.0);
+        PcgReport {
+            iterations,
+            residual: delta.sqrt(),
+            relative_residual: (delta / delta0).sqrt(),
+            converged: delta <= target,
+        }
     }
 }
 
