@@ -157,6 +157,12 @@ pub fn wrapped_difference(theta: f64, rest: f64) -> f64 {
 mod tests {
     use super::*;
 
+    #[test]
+    fn cross_matrix_is_the_cross_product() {
+        let (a, b) = (DVec3::new(0.3, -1.2, 2.0), DVec3::new(-0.7, 0.4, 1.1));
+        assert!((cross_matrix(a) * b - a.cross(b)).length() < 1e-15);
+    }
+
     /// A small deterministic generator (xorshift) so the tests need no extra crate.
     pub(crate) struct Rng(pub u64);
     impl Rng {

@@ -16,7 +16,7 @@ use nalgebra::SMatrix;
 
 use super::EnergyError;
 use super::hinge::{angle_gradient, angle_hessian_lower, lower_index, outer, wrapped_difference};
-use super::stretch::{area_gradient, edge, triangle, unpack};
+use super::stretch::{area_gradient, edge, packed_entry, triangle};
 use crate::mesh::TriMesh;
 
 /// The three stiffnesses of the shell energy.
@@ -316,7 +316,7 @@ fn hinge_hessian(p: &[DVec3; 4], rest: f64, weight: f64) -> [DMat3; 10] {
 macro_rules! project_psd_fn {
     ($name:ident, $k:literal, $n:literal) => {
         fn $name(lower: &mut [DMat3]) {
-            let m = SMatrix::<f64, $n, $n>::from_column_slice(&unpack::<$k>(lower));
+            let m = SMatrix::<f64, $n, $n>::from_fn(|i, j| packed_entry(lower, i, j));
             let eig = m.symmetric_eigen();
             if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
                 return;

@@ -78,20 +78,17 @@ pub fn triangle(x: &[DVec3; 3], rest: f64) -> (f64, [DVec3; 3], [DMat3; 6]) {
     (value, grad, h)
 }
 
+/// Entry `(i, j)` of the symmetric `3k × 3k` matrix of an element given by its packed lower blocks.
+pub(crate) fn packed_entry(lower: &[DMat3], i: usize, j: usize) -> f64 {
+    let (p, q) = (i / 3, j / 3);
+    if p >= q { lower[lower_index(p, q)].col(j % 3)[i % 3] } else { lower[lower_index(q, p)].col(i % 3)[j % 3] }
+}
+
 /// The dense `3k × 3k` column-major matrix of a `k`-point element from its packed lower blocks.
+#[cfg(test)]
 pub(crate) fn unpack<const K: usize>(lower: &[DMat3]) -> Vec<f64> {
     let n = 3 * K;
-    let mut h = vec![0.0; n * n];
-    for p in 0..K {
-        for q in 0..=p {
-            let m = lower[lower_index(p, q)];
-            for (r, c, v) in (0..9).map(|t| (t % 3, t / 3, m.col(t / 3)[t % 3])) {
-                h[(3 * q + c) * n + 3 * p + r] = v;
-                h[(3 * p + r) * n + 3 * q + c] = v;
-            }
-        }
-    }
-    h
+    (0..n * n).map(|t| packed_entry(lower, t % n, t / n)).collect()
 }
 
 #[cfg(test)]

@@ -14,7 +14,7 @@ use glam::DVec3;
 use pulp::Simd;
 
 use super::basis::{LANES, ModalBasis, Rows, chunks};
-use super::warp::{B_SERIES, C_SERIES, closed, past_series, series_terms};
+use super::warp::{B_SERIES, C_SERIES, past_series, series_terms};
 
 /// Per-vertex vectors (rest positions, external forces) in the chunked layout `[chunk][axis][lane]`.
 #[derive(Debug, Clone, PartialEq)]
@@ -139,7 +139,7 @@ fn coefficients<S: Simd>(simd: S, w: &[S::f64s; 3]) -> [S::f64s; 3] {
         let tt: &[f64] = bytemuck::cast_slice(std::slice::from_ref(&t));
         let mut lanes: [[f64; LANES]; 3] = [[0.0; LANES]; 3];
         for (k, &tk) in tt.iter().enumerate() {
-            let exact = if past_series(tk) { closed(tk) } else { super::warp::coefficients(tk) };
+            let exact = super::warp::coefficients(tk);
             (0..3).for_each(|i| lanes[i][k] = exact[i]);
         }
         out = lanes.each_ref().map(|l| S::as_simd_f64s(l).0[0]);

@@ -14,12 +14,8 @@
 
 use glam::{DMat3, DVec3};
 
+use crate::energy::hinge::{cross_matrix, outer};
 use crate::mesh::TriMesh;
-
-/// `[r]×`, the matrix of `v ↦ r × v`.
-pub fn cross_matrix(r: DVec3) -> DMat3 {
-    DMat3::from_cols(DVec3::new(0.0, r.z, -r.y), DVec3::new(-r.z, 0.0, r.x), DVec3::new(r.y, -r.x, 0.0))
-}
 
 /// The three 3×3 blocks `J_k = ½ n nᵀ [g_k]× − [n]× g_k nᵀ` of a triangle's rotation Jacobian
 /// `w_t = Σ_k J_k u_k` (see the module documentation). The triangle must not be degenerate (meshes
@@ -28,7 +24,6 @@ pub fn triangle_jacobian(x: [DVec3; 3]) -> [DMat3; 3] {
     let n = (x[1] - x[0]).cross(x[2] - x[0]);
     let twice_area_sq = n.length_squared();
     let unit = n / twice_area_sq.sqrt();
-    let outer = |a: DVec3, b: DVec3| DMat3::from_cols(a * b.x, a * b.y, a * b.z);
     // Barycentric gradient of vertex k: n × (edge opposite k, oriented k+1 → k+2) / |n|².
     let gradient = |k: usize| n.cross(x[(k + 2) % 3] - x[(k + 1) % 3]) / twice_area_sq;
     [0, 1, 2].map(|k| {
@@ -79,12 +74,6 @@ impl RotationOperator {
 mod tests {
     use super::*;
     use crate::mesh::generate::{grid, icosphere, v_beam};
-
-    #[test]
-    fn cross_matrix_is_the_cross_product() {
-        let (a, b) = (DVec3::new(0.3, -1.2, 2.0), DVec3::new(-0.7, 0.4, 1.1));
-        assert!((cross_matrix(a) * b - a.cross(b)).length() < 1e-15);
-    }
 
     #[test]
     fn single_triangle_returns_its_small_rigid_rotation() {

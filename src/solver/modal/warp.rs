@@ -26,7 +26,7 @@
 
 use glam::{DMat3, DVec3};
 
-use super::rotation::cross_matrix;
+use crate::energy::hinge::cross_matrix;
 
 /// Below this angle (`θ < π`) the coefficients are evaluated as polynomials in `θ²` (no square root,
 /// no trigonometry: this is the per-vertex hot path of every MWTS step); above it in closed form.
