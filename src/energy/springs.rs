@@ -230,11 +230,6 @@ impl Buckling {
         Self { buckling: (t1, t2), ..empty }
     }
 
-    /// Rest length, m.
-    pub fn rest(&self) -> f64 {
-        self.rest
-    }
-
     /// `(tension, stiffness)` at length `r`, without the energy (the hot path of a step).
     #[inline(always)]
     pub fn tension_stiffness(&self, r: f64) -> (f64, f64) {

@@ -63,26 +63,18 @@ struct Active {
 pub struct Contacts {
     state: Vec<ContactState>,
     active: Vec<Active>,
-    /// The deepest penetration (most negative distance) seen at the start of a step since reset, m.
-    pub deepest: f64,
 }
 
 impl Contacts {
     /// No contacts, for `n` particles.
     pub fn new(n: usize) -> Self {
-        Self { state: vec![ContactState::Free; n], active: Vec::new(), deepest: 0.0 }
+        Self { state: vec![ContactState::Free; n], active: Vec::new() }
     }
 
     /// Forget every contact.
     pub fn reset(&mut self) {
         self.state.fill(ContactState::Free);
         self.active.clear();
-        self.deepest = 0.0;
-    }
-
-    /// The state of every particle.
-    pub fn states(&self) -> &[ContactState] {
-        &self.state
     }
 
     /// Find the contacts of particles at `x` with velocities `v` against `bodies` at time `t`, push their
@@ -109,7 +101,6 @@ impl Contacts {
                 continue;
             }
             let Some(c) = nearest(&placed, x[i]) else { continue };
-            self.deepest = self.deepest.min(c.distance);
             let rel = v[i] - c.velocity;
             let vn = rel.dot(c.normal);
             let near = c.distance < params.margin || c.distance + h * vn < params.margin;

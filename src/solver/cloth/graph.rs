@@ -137,11 +137,6 @@ impl SpringGraph {
         let rest = pairs.iter().map(|&[i, j]| (positions[j] - positions[i]).length()).collect();
         Self { pairs, kinds, rest, width, weights, masses }
     }
-
-    /// Number of particles.
-    pub fn particle_count(&self) -> usize {
-        self.masses.len()
-    }
 }
 
 fn sorted([a, b]: [usize; 2]) -> [usize; 2] {

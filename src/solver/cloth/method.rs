@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::contact::{ContactParams, ContactState, Contacts};
+use super::contact::{ContactParams, Contacts};
 use super::graph::SpringGraph;
 use super::system::{ClothSystem, SpringParams};
 use crate::collision::Body;
@@ -216,16 +216,6 @@ impl Cloth {
             time: 0.0,
             energy_limit,
         })
-    }
-
-    /// Contact state of every particle.
-    pub fn contact_states(&self) -> &[ContactState] {
-        self.contacts.states()
-    }
-
-    /// The deepest penetration into a body seen at the start of any step since the last reset, m (≤ 0).
-    pub fn deepest_penetration(&self) -> f64 {
-        self.contacts.deepest
     }
 
     /// Current velocities, m/s.
