@@ -283,7 +283,6 @@ fn stable_at_a_thirtieth_of_a_second_from_k_s_50_to_3500() {
         let mut last = first;
         for _ in 1..150 {
             let stats = cloth.step().unwrap_or_else(|e| panic!("k_s = {k_s}: {e}"));
-            assert!(stats.energy.is_finite() && cloth.positions().iter().all(|p| p.is_finite()));
             highest = highest.max(stats.energy);
             last = stats.energy;
         }

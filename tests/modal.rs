@@ -67,7 +67,6 @@ fn compare_with_dense(s: &Setup, a: &ModalAnalysis, skip: usize) {
         assert!((overlap.abs() - 1.0).abs() < 1e-8, "mode {j} overlap {overlap}");
         assert!(a.residuals[j] <= MAX_RESIDUAL, "mode {j} residual {}", a.residuals[j]);
     }
-    assert!(a.above_target().is_empty());
 }
 
 #[test]
@@ -124,6 +123,26 @@ fn every_pair_of_the_shell_scenes_meets_the_residual_target() {
         eprintln!("{name}: residuals {:?} (λ_max ≤ {:.2e})", short(&a.residuals), a.lambda_max);
         assert_eq!(a.residuals.len(), modes);
         assert!(a.residuals.iter().all(|&r| r <= MAX_RESIDUAL), "{name}: {:?}", a.residuals);
-        assert!(a.above_target().is_empty());
+    }
+}
+
+/// The documented exception to the residual target: a stiff membrane with a soft bending mode on a
+/// fine strip (`λ_max/λ₁ ≈ 4e10`) cannot get its first mode below 1e-8 in f64. The analysis accepts
+/// it, but only within the round-off floor, and flags it.
+#[test]
+fn a_mode_past_the_target_but_within_round_off_is_flagged() {
+    let overrides =
+        ["mesh.grid.size=[1.0, 0.02]", "mesh.grid.segments=[100, 2]", "material.k_area=100", "material.k_bend=0.001"];
+    let s = scene::load("cantilever", &overrides.map(String::from)).unwrap();
+    let a = analysis(&s, 4);
+    let flagged = a.above_target();
+    eprintln!("residuals {:?}, flagged (mode, floor) {flagged:?}", short(&a.residuals));
+    assert!(flagged.iter().any(|&(j, _)| j == 0), "mode 0 is past the target: {:?}", a.residuals);
+    for (j, floor) in flagged {
+        assert!(
+            a.residuals[j] > MAX_RESIDUAL && a.residuals[j] <= floor,
+            "mode {j}: {} vs floor {floor}",
+            a.residuals[j]
+        );
     }
 }

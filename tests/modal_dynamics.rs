@@ -249,6 +249,7 @@ fn changing_the_mode_count_recomputes_in_the_background_and_carries_the_state_ov
     eprintln!("swap: shape moved {jump:.2e} m (sag {sag:.3} m)");
     assert!(jump < 0.05 * sag, "jump {jump} at the swap, sag {sag}");
     // Through the step loop: a stiffness change swaps in when a step finds it done; every step runs.
+    let softer = s.analysis().basis.eigenvalues.clone();
     s.set_param("k_bend", 1.0).unwrap();
     let start = std::time::Instant::now();
     while s.progress().is_some() {
@@ -256,6 +257,14 @@ fn changing_the_mode_count_recomputes_in_the_background_and_carries_the_state_ov
         assert!(start.elapsed().as_secs() < 60, "the background analysis finishes");
     }
     s.step().unwrap();
+    // The scene's k_bend is 0.5: doubling it doubles the first (pure bending) eigenvalue.
+    let stiffer = &s.analysis().basis.eigenvalues;
+    assert!(
+        (stiffer[0] / softer[0] - 2.0).abs() < 0.01,
+        "the stiffer modes are in use: λ₁ {} → {}",
+        softer[0],
+        stiffer[0]
+    );
 }
 
 #[test]

@@ -28,7 +28,8 @@ fn readme_example_scene_parses_and_loads() {
     assert_eq!((scene.anchors.len(), scene.loads.len(), scene.colliders.len()), (1, 1, 1));
     let setup = Setup::new(scene, origin).unwrap_or_else(|e| panic!("README example scene: {e}"));
     assert_eq!(setup.mesh.vertex_count(), 41 * 5);
-    assert!(!setup.anchors.is_empty());
+    // The anchor box ends at x = −0.474: the first two columns of the 41 × 5 grid.
+    assert_eq!(setup.anchors.len(), 2 * 5);
 }
 
 /// Every `--long` option in `text`, except `--help` and `--version`.

@@ -6,6 +6,7 @@
 use std::path::PathBuf;
 
 use image::RgbaImage;
+use shellwarp::app::orbit::project;
 use shellwarp::app::scene_view::{SceneView, ViewOptions};
 use shellwarp::render::{Headless, compare_images, load_png, save_png};
 use shellwarp::scene::{self, Setup};
@@ -19,12 +20,10 @@ fn reference(name: &str) -> PathBuf {
 
 /// The pixel rectangle `(x, y, width, height)` the shell's vertices project into (a few pixels of margin).
 fn shell_rect(view: &SceneView, setup: &Setup) -> (u32, u32, u32, u32) {
-    let view_proj = view.camera().view_proj(WIDTH as f32 / HEIGHT as f32);
+    let size = glam::Vec2::new(WIDTH as f32, HEIGHT as f32);
     let (mut lo, mut hi) = (glam::Vec2::splat(f32::INFINITY), glam::Vec2::splat(f32::NEG_INFINITY));
     for p in setup.mesh.positions() {
-        let clip = view_proj * p.as_vec3().extend(1.0);
-        let ndc = clip.truncate().truncate() / clip.w;
-        let pixel = glam::Vec2::new((ndc.x + 1.0) / 2.0 * WIDTH as f32, (1.0 - ndc.y) / 2.0 * HEIGHT as f32);
+        let pixel = project(&view.camera(), p.as_vec3(), size).expect("every vertex is in front of the camera");
         (lo, hi) = (lo.min(pixel), hi.max(pixel));
     }
     let lo = (lo - 3.0).max(glam::Vec2::ZERO).as_uvec2();
