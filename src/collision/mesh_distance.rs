@@ -88,12 +88,20 @@ impl MeshDistance {
     /// Signed distance from `x` to the surface (negative inside) and the unit outward direction.
     pub fn signed_distance(&self, x: DVec3) -> (f64, DVec3) {
         let mut best = (f64::INFINITY, 0usize, DVec3::ZERO, Feature::Face);
-        let mut stack = vec![0usize];
-        while let Some(i) = stack.pop() {
-            let node = self.nodes[i];
-            if box_distance_squared(x, node.min, node.max) >= best.0 {
+        // Depth-first, nearer child first, each node with its box distance (computed once). The tree
+        // splits at the median, so its depth is log₂(triangles / LEAF_SIZE) and the stack holds at most
+        // depth + 1 entries: 64 is enough for any mesh that fits in memory, and no allocation per query.
+        let box_d2 = |i: usize| box_distance_squared(x, self.nodes[i].min, self.nodes[i].max);
+        let mut stack = [(0usize, 0.0f64); 64];
+        stack[0] = (0, box_d2(0));
+        let mut len = 1;
+        while len > 0 {
+            len -= 1;
+            let (i, d2_box) = stack[len];
+            if d2_box >= best.0 {
                 continue;
             }
+            let node = self.nodes[i];
             if node.count > 0 {
                 for &t in &self.order[node.start..node.start + node.count] {
                     let tri = self.triangles[t].map(|v| self.positions[v]);
@@ -105,15 +113,12 @@ impl MeshDistance {
                 }
                 continue;
             }
-            let (l, r) = (node.start, node.right);
-            let dl = box_distance_squared(x, self.nodes[l].min, self.nodes[l].max);
-            let dr = box_distance_squared(x, self.nodes[r].min, self.nodes[r].max);
+            let (l, r) = ((node.start, box_d2(node.start)), (node.right, box_d2(node.right)));
             // Visit the nearer child first (pushed last).
-            if dl < dr {
-                stack.extend([r, l]);
-            } else {
-                stack.extend([l, r]);
-            }
+            let (first, second) = if l.1 < r.1 { (r, l) } else { (l, r) };
+            stack[len] = first;
+            stack[len + 1] = second;
+            len += 2;
         }
         let (d2, t, p, feature) = best;
         let tri = self.triangles[t];
