@@ -12,9 +12,6 @@ use shellwarp::app::panel::{self, PanelState, UiAction};
 use shellwarp::app::sim_thread::{Command, Pacing, SimHandle, SimStatus, Snapshot};
 use shellwarp::solver::{Drag, DragId, DragKind, Progress};
 
-/// The viewer's default panel width, points.
-const PANEL_WIDTH: f32 = 330.0;
-
 struct Ui {
     panel: PanelState,
     snapshot: Snapshot,
@@ -30,7 +27,7 @@ fn harness(scene: &str) -> (Harness<'static, Ui>, SimHandle) {
         snapshot: sim.latest().clone(),
         actions: Vec::new(),
     };
-    let h = Harness::builder().with_size(egui::vec2(PANEL_WIDTH, 1000.0)).build_ui_state(
+    let h = Harness::builder().with_size(egui::vec2(panel::DEFAULT_WIDTH, 1000.0)).build_ui_state(
         |ui, s: &mut Ui| {
             let a = panel::show(ui, &mut s.panel, &s.snapshot);
             s.actions.extend(a);

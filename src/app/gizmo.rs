@@ -5,6 +5,7 @@
 
 use glam::{DQuat, DVec3};
 
+use super::scene_view::f32x3;
 use crate::render::Frame;
 
 /// Ring colours for the rotated x, y and z axes.
@@ -16,7 +17,6 @@ const SEGMENTS: usize = 48;
 pub fn rotate_gizmo(frame: &mut Frame, centre: DVec3, rotation: DVec3, radius: f64) {
     let q = DQuat::from_scaled_axis(rotation);
     let axes = [q * DVec3::X, q * DVec3::Y, q * DVec3::Z];
-    let f = |v: DVec3| v.as_vec3().to_array();
     for (i, colour) in AXIS_COLOURS.into_iter().enumerate() {
         // The ring around axis i spans the other two axes.
         let (u, v) = (axes[(i + 1) % 3] * radius, axes[(i + 2) % 3] * radius);
@@ -25,9 +25,9 @@ pub fn rotate_gizmo(frame: &mut Frame, centre: DVec3, rotation: DVec3, radius: f
             centre + u * t.cos() + v * t.sin()
         };
         for k in 0..SEGMENTS {
-            frame.line(f(point(k)), f(point(k + 1)), colour);
+            frame.line(f32x3(point(k)), f32x3(point(k + 1)), colour);
         }
-        frame.line(f(centre - axes[i] * radius * 0.5), f(centre + axes[i] * radius * 1.3), colour);
+        frame.line(f32x3(centre - axes[i] * radius * 0.5), f32x3(centre + axes[i] * radius * 1.3), colour);
     }
 }
 

@@ -78,6 +78,9 @@ pub struct PanelState {
 
 const HISTORY: usize = 600;
 
+/// The panel's width when the window opens, logical pixels.
+pub const DEFAULT_WIDTH: f32 = 330.0;
+
 impl PanelState {
     /// A panel offering these scenes and methods, showing `scene`.
     pub fn new(scenes: Vec<String>, methods: Vec<String>, scene: String) -> Self {

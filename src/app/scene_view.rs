@@ -70,7 +70,8 @@ pub struct SceneView {
     marker_size: f32,
 }
 
-fn f32x3(v: DVec3) -> [f32; 3] {
+/// A position as the renderer's `[f32; 3]`.
+pub(super) fn f32x3(v: DVec3) -> [f32; 3] {
     v.as_vec3().to_array()
 }
 

@@ -325,9 +325,10 @@ impl Running {
         let mut panel_width = self.panel_width;
         let ctx = self.egui_state.egui_ctx().clone();
         let output = ctx.run_ui(raw, |ui| {
-            let shown = egui::Panel::left("controls").resizable(true).default_size(330.0).show(ui, |ui| {
-                actions = panel::show(ui, panel, snapshot);
-            });
+            let shown =
+                egui::Panel::left("controls").resizable(true).default_size(panel::DEFAULT_WIDTH).show(ui, |ui| {
+                    actions = panel::show(ui, panel, snapshot);
+                });
             panel_width = shown.response.rect.width();
         });
         self.panel_width = panel_width;

@@ -59,7 +59,7 @@ pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
     }
     let a = analyse(&problem, &|f| bar.set_position((f * 100.0) as u64))?;
     bar.finish_and_clear();
-    let t = a.timings;
+    let (t, above) = (a.timings, a.above_target());
     let report = Report {
         scene: setup.scene.name.clone(),
         vertices: setup.mesh.vertex_count(),
@@ -69,7 +69,7 @@ pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
         eigenvalues: a.basis.eigenvalues.clone(),
         frequencies_hz: a.basis.frequencies_hz(),
         relative_residuals: a.residuals.clone(),
-        above_target: a.above_target().iter().map(|(j, _)| *j).collect(),
+        above_target: above.iter().map(|(j, _)| *j).collect(),
         lambda_max_bound: a.lambda_max,
         block_solves: a.solves,
         vectors_per_block: EIGEN_BLOCK,
@@ -88,7 +88,7 @@ pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
         let flag = if report.above_target.contains(&j) { " *" } else { "" };
         println!("{j:>5} {l:>14.6e} {f:>12.5} {r:>12.2e}{flag}");
     }
-    for (j, floor) in a.above_target() {
+    for (j, floor) in above {
         println!(
             "* mode {j}: residual above {MAX_RESIDUAL:.0e}: it stopped improving at round-off, under the bound \
              64ε·λmax/λ = {floor:.1e} (no f64 vector does better; see the docs of MAX_RESIDUAL)"

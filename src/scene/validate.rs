@@ -98,12 +98,18 @@ impl Scene {
         vec3("placement.translate", self.placement.translate)?;
         let m = &self.material;
         positive("material.density", m.density)?;
-        non_negative("material.k_area", m.k_area)?;
-        non_negative("material.k_length", m.k_length)?;
-        non_negative("material.k_bend", m.k_bend)?;
-        for (key, v) in
-            [("k_s", m.k_s), ("k_b", m.k_b), ("c_b", m.c_b), ("k_d", m.k_d), ("mu_s", m.mu_s), ("mu_k", m.mu_k)]
-        {
+        let stiffnesses = [
+            ("k_area", m.k_area),
+            ("k_length", m.k_length),
+            ("k_bend", m.k_bend),
+            ("k_s", m.k_s),
+            ("k_b", m.k_b),
+            ("c_b", m.c_b),
+            ("k_d", m.k_d),
+            ("mu_s", m.mu_s),
+            ("mu_k", m.mu_k),
+        ];
+        for (key, v) in stiffnesses {
             non_negative(&format!("material.{key}"), v)?;
         }
         for (i, a) in self.anchors.iter().enumerate() {

@@ -232,10 +232,12 @@ impl ShellModel {
     }
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+/// `aᵀb`.
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-fn norm(a: &[f64]) -> f64 {
+/// `|a|`.
+pub(super) fn norm(a: &[f64]) -> f64 {
     dot(a, a).sqrt()
 }

@@ -16,6 +16,7 @@
 use nalgebra::DMatrix;
 
 use super::ShellModel;
+use super::newton::{dot, norm};
 
 /// Highest Lanczos steps taken.
 const MAX_STEPS: usize = 120;
@@ -98,12 +99,8 @@ fn largest_ritz_value(a: &[f64], b: &[f64]) -> f64 {
     t.symmetric_eigenvalues().iter().copied().fold(f64::NEG_INFINITY, f64::max)
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
 fn normalise(v: &mut [f64]) {
-    let n = dot(v, v).sqrt();
+    let n = norm(v);
     v.iter_mut().for_each(|x| *x /= n);
 }
 
