@@ -1,6 +1,6 @@
 //! A rigid body: a shape in its own frame and a scripted motion that places it in the world.
 
-use glam::{DQuat, DVec3};
+use glam::{DMat3, DQuat, DVec3};
 
 use super::MeshDistance;
 
@@ -87,7 +87,8 @@ impl Body {
     /// The body placed at time `t`, for many queries at that time.
     pub fn at(&self, t: f64) -> Placed<'_> {
         let (centre, rotation) = self.pose(t);
-        Placed { body: self, centre, rotation, inverse: rotation.inverse(), velocity: self.origin_velocity(t) }
+        let rotation = DMat3::from_quat(rotation);
+        Placed { body: self, centre, rotation, inverse: rotation.transpose(), velocity: self.origin_velocity(t) }
     }
 }
 
@@ -96,16 +97,22 @@ impl Body {
 pub struct Placed<'a> {
     body: &'a Body,
     centre: DVec3,
-    rotation: DQuat,
-    inverse: DQuat,
+    rotation: DMat3,
+    inverse: DMat3,
     velocity: DVec3,
 }
 
 impl Placed<'_> {
     /// Signed distance, outward normal and body velocity at world point `x`.
     pub fn contact(&self, x: DVec3) -> Contact {
-        let (centre, rotation) = (self.centre, self.rotation);
-        let local = self.inverse * (x - centre);
+        let (distance, normal) = self.surface(x);
+        Contact { distance, normal, velocity: self.velocity_at(x) }
+    }
+
+    /// Signed distance and outward normal (world frame) at world point `x`.
+    #[inline]
+    pub fn surface(&self, x: DVec3) -> (f64, DVec3) {
+        let local = self.inverse * (x - self.centre);
         let (distance, normal) = match &self.body.shape {
             Shape::Sphere { radius } => {
                 let r = local.length();
@@ -115,8 +122,13 @@ impl Placed<'_> {
             Shape::Plane { normal } => (local.dot(*normal), *normal),
             Shape::Mesh(mesh) => mesh.signed_distance(local),
         };
-        let velocity = self.velocity + self.body.motion.spin.cross(x - centre);
-        Contact { distance, normal: rotation * normal, velocity }
+        (distance, self.rotation * normal)
+    }
+
+    /// Velocity of the body's material at world point `x`.
+    #[inline]
+    pub fn velocity_at(&self, x: DVec3) -> DVec3 {
+        self.velocity + self.body.motion.spin.cross(x - self.centre)
     }
 }
 

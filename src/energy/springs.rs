@@ -196,6 +196,8 @@ pub struct Buckling {
     c_b: f64,
     /// Compressions `t = 1 − u` bounding the interval where the buckling branch acts (empty if `lo ≥ hi`).
     buckling: (f64, f64),
+    /// The energy at the start and at the end of the buckling branch, and `G(1 − t₁)`.
+    branch_energy: (f64, f64, f64),
 }
 
 impl Buckling {
@@ -203,10 +205,10 @@ impl Buckling {
     /// buckling push `(k_b/L²) F`; `F` is convex in `t`, so `β t − F` (`β = c_b L³/k_b`) is concave and
     /// the buckling branch (where `β t ≥ F`) is one interval `[t₁, t₂]`, possibly empty.
     pub fn new(rest: f64, k_b: f64, c_b: f64) -> Self {
-        let empty = Self { rest, k_b, c_b, buckling: (1.0, 1.0) };
+        let empty = Self { rest, k_b, c_b, buckling: (1.0, 1.0), branch_energy: (0.0, 0.0, 0.0) };
         if k_b <= 0.0 {
             // No buckling resistance: max(0, c_b (r − L)) = 0 in compression, the "buckling" branch throughout.
-            return Self { buckling: (0.0, 1.0), ..empty };
+            return Self { buckling: (0.0, 1.0), ..empty }.with_branch_energy();
         }
         if c_b <= 0.0 {
             return empty;
@@ -227,7 +229,16 @@ impl Buckling {
         }
         let t1 = bisect(|t| phi(t) < 0.0, 0.0, peak);
         let t2 = if phi(1.0) >= 0.0 { 1.0 } else { bisect(|t| phi(t) >= 0.0, peak, 1.0) };
-        Self { buckling: (t1, t2), ..empty }
+        Self { buckling: (t1, t2), ..empty }.with_branch_energy()
+    }
+
+    /// Fill in [`Self::branch_energy`] for the branches found.
+    fn with_branch_energy(self) -> Self {
+        let (t1, t2) = self.buckling;
+        let g1 = BucklingCurve::get().energy(1.0 - t1);
+        let start = 0.5 * self.c_b * self.rest * self.rest * t1 * t1;
+        let end = start + self.k_b / self.rest * (BucklingCurve::get().energy(1.0 - t2) - g1);
+        Self { branch_energy: (start, end, g1), ..self }
     }
 
     /// `(tension, stiffness)` at length `r`, without the energy (the hot path of a step).
@@ -252,16 +263,15 @@ impl Buckling {
         if t <= 0.0 {
             return 0.0;
         }
-        let curve = BucklingCurve::get();
         let (t1, t2) = self.buckling;
+        let (start, end, g1) = self.branch_energy;
         let linear = |a: f64, b: f64| 0.5 * self.c_b * l * l * (b * b - a * a);
-        let buckling = |a: f64, b: f64| self.k_b / l * (curve.energy(1.0 - b) - curve.energy(1.0 - a));
         if t1 >= t2 || t <= t1 {
             linear(0.0, t)
         } else if t <= t2 {
-            linear(0.0, t1) + buckling(t1, t)
+            start + self.k_b / l * (BucklingCurve::get().energy(1.0 - t) - g1)
         } else {
-            linear(0.0, t1) + buckling(t1, t2) + linear(t2, t)
+            end + linear(t2, t)
         }
     }
 

@@ -78,7 +78,8 @@ impl Contacts {
     }
 
     /// Find the contacts of particles at `x` with velocities `v` against `bodies` at time `t`, push their
-    /// constraints, and add kinetic friction to `force`. Particles with `held[i]` are skipped.
+    /// constraints, and add kinetic friction's impulse over the step of `h` to the step's right side
+    /// `rhs`. Particles with `held[i]` are skipped.
     #[allow(clippy::too_many_arguments)]
     pub fn constrain(
         &mut self,
@@ -87,7 +88,7 @@ impl Contacts {
         (x, v, held): (&[DVec3], &[DVec3], &[bool]),
         (t, h): (f64, f64),
         masses: &[f64],
-        force: &mut [DVec3],
+        rhs: &mut [DVec3],
         constraints: &mut Vec<Constraint>,
     ) {
         self.active.clear();
@@ -132,7 +133,7 @@ impl Contacts {
                         let limit = masses[i] * speed / h;
                         let friction = params.mu_k * normal_force.max(0.0);
                         stopped = friction >= limit;
-                        force[i] -= tangential / speed * friction.min(limit);
+                        rhs[i] -= tangential * (friction.min(limit) * h / speed);
                     }
                     self.active.push(Active { particle: i, normal: n, stopped });
                 }
@@ -158,7 +159,8 @@ impl Contacts {
     }
 }
 
-/// The body the point is closest to (by signed distance).
+/// Where `x` is relative to the body it is closest to (by signed distance); `None` without bodies.
 fn nearest(bodies: &[Placed<'_>], x: DVec3) -> Option<Contact> {
-    bodies.iter().map(|b| b.contact(x)).min_by(|a, b| a.distance.total_cmp(&b.distance))
+    let (body, (distance, normal)) = bodies.iter().map(|b| (b, b.surface(x))).min_by(|a, b| a.1.0.total_cmp(&b.1.0))?;
+    Some(Contact { distance, normal, velocity: body.velocity_at(x) })
 }

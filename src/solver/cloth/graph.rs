@@ -22,22 +22,14 @@ use glam::DVec3;
 
 use crate::mesh::TriMesh;
 
-/// What a spring models.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SpringKind {
-    /// Resists stretch only.
-    Stretch,
-    /// Resists compression by buckling.
-    Buckling,
-}
-
 /// The interactions of a cloth.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SpringGraph {
-    /// Particle pairs `(i, j)` with `i < j`, stretch springs first, each pair at most once per kind.
+    /// Particle pairs `(i, j)` with `i < j`: the stretch springs `0..stretch`, then the buckling
+    /// springs; each pair at most once per kind.
     pub pairs: Vec<[usize; 2]>,
-    /// The kind of each spring.
-    pub kinds: Vec<SpringKind>,
+    /// How many of the springs (the first ones) are stretch springs.
+    pub stretch: usize,
     /// Rest length of each spring, m.
     pub rest: Vec<f64>,
     /// Bending width of each buckling spring (0 for stretch springs), m.
@@ -124,18 +116,10 @@ impl SpringGraph {
         weights: Vec<f64>,
         masses: Vec<f64>,
     ) -> Self {
-        let tagged = stretch
-            .iter()
-            .map(|p| (*p, SpringKind::Stretch, 0.0))
-            .chain(buckling.iter().map(|(p, w)| (*p, SpringKind::Buckling, *w)));
-        let (mut pairs, mut kinds, mut width) = (Vec::new(), Vec::new(), Vec::new());
-        for (p, k, w) in tagged {
-            pairs.push(p);
-            kinds.push(k);
-            width.push(w);
-        }
+        let pairs: Vec<[usize; 2]> = stretch.iter().copied().chain(buckling.iter().map(|(p, _)| *p)).collect();
+        let width = stretch.iter().map(|_| 0.0).chain(buckling.iter().map(|(_, w)| *w)).collect();
         let rest = pairs.iter().map(|&[i, j]| (positions[j] - positions[i]).length()).collect();
-        Self { pairs, kinds, rest, width, weights, masses }
+        Self { pairs, stretch: stretch.len(), rest, width, weights, masses }
     }
 }
 
@@ -155,11 +139,8 @@ mod tests {
             TriMesh::new(vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 0.0, 1.0), DVec3::Z], vec![[0, 2, 1], [0, 3, 2]])
                 .unwrap();
         let g = SpringGraph::triangle_mesh(&mesh, 2.0);
-        let stretch = g.kinds.iter().filter(|k| **k == SpringKind::Stretch).count();
-        assert_eq!(stretch, 5);
-        let diag: Vec<_> = g.pairs.iter().zip(&g.kinds).filter(|(_, k)| **k == SpringKind::Buckling).collect();
-        assert_eq!(diag.len(), 1);
-        assert_eq!(*diag[0].0, [1, 3]);
+        assert_eq!(g.stretch, 5);
+        assert_eq!(g.pairs[5..], [[1, 3]]);
         assert!((g.rest[5] - 2f64.sqrt()).abs() < 1e-15);
         // It crosses the edge 0–2 (length √2): that is its bending width.
         assert!((g.width[5] - 2f64.sqrt()).abs() < 1e-15 && g.width[..5].iter().all(|w| *w == 0.0));
@@ -185,14 +166,14 @@ mod tests {
         }
         // No pair appears twice within a kind.
         let mut seen = HashSet::new();
-        assert!(g.pairs.iter().zip(&g.kinds).all(|(p, k)| seen.insert((*p, *k as u8))));
+        assert!(g.pairs.iter().enumerate().all(|(s, p)| seen.insert((*p, s < g.stretch))));
     }
 
     #[test]
     fn quad_grid_has_first_and_second_neighbours() {
         let mesh = generate::grid([1.0, 1.0], [3, 2]).unwrap();
         let g = SpringGraph::quad_grid(mesh.positions(), [3, 2], [1.0 / 3.0, 0.5], 1.0);
-        let stretch = g.kinds.iter().filter(|k| **k == SpringKind::Stretch).count();
+        let stretch = g.stretch;
         // Axis springs 3·3 + 4·2 = 17, cell diagonals 2·6 = 12; second neighbours 2·3 + 4·1 = 10.
         assert_eq!(stretch, 29);
         assert_eq!(g.pairs.len() - stretch, 10);

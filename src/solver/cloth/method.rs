@@ -7,7 +7,7 @@ use glam::DVec3;
 
 use super::contact::{ContactParams, Contacts};
 use super::graph::SpringGraph;
-use super::system::{ClothSystem, SpringParams};
+use super::system::{ClothSystem, SpringParams, SpringState};
 use crate::collision::Body;
 use crate::linalg::filtered_pcg::{self, Constraint, PcgReport, Stop};
 use crate::scene::{MeshSource, Setup};
@@ -97,7 +97,7 @@ const PARAMS: [ParamSpec; 12] = [
 ];
 
 /// One step's linear system `A Δv = b` (with `A` applied by [`ClothSystem::apply`]).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct LinearStep {
     /// The right side `b`.
     pub rhs: Vec<DVec3>,
@@ -136,6 +136,12 @@ pub struct Cloth {
     v: Vec<DVec3>,
     /// Last step's velocity change (PCG warm start).
     dv: Vec<DVec3>,
+    /// The step being solved (its buffers reused from step to step).
+    work: LinearStep,
+    /// The last solve's residual `b − A Δv`.
+    residual: Vec<DVec3>,
+    /// Which particles anchors or drags hold this step.
+    held: Vec<bool>,
     anchored: Vec<bool>,
     gravity: DVec3,
     density: f64,
@@ -204,6 +210,9 @@ impl Cloth {
             x: rest.clone(),
             v: vec![DVec3::ZERO; n],
             dv: vec![DVec3::ZERO; n],
+            work: LinearStep::default(),
+            residual: vec![DVec3::ZERO; n],
+            held: vec![false; n],
             rest,
             anchored: setup.anchored_mask(),
             gravity: setup.gravity(),
@@ -236,82 +245,83 @@ impl Cloth {
     /// Linearise the next step at the current state: forces, constraints (anchors, drags, contacts,
     /// with the contact states advanced to this step) and the right side. [`Solver::step`] solves it.
     pub fn linearise(&mut self) -> LinearStep {
-        self.linearise_for(self.h)
+        let mut step = LinearStep::default();
+        self.linearise_into(self.h, &mut step);
+        step
     }
 
-    fn linearise_for(&mut self, h: f64) -> LinearStep {
+    /// Linearise a step of `h` into `step`, reusing its buffers.
+    fn linearise_into(&mut self, h: f64, step: &mut LinearStep) {
         let n = self.x.len();
-        let mut force = vec![DVec3::ZERO; n];
-        self.system.linearise(&self.x, &self.v, self.gravity, h, &mut force);
-        let mut constraints = Vec::new();
-        let mut held = vec![false; n];
-        self.hold(h, &mut held, &mut constraints);
+        step.rhs.resize(n, DVec3::ZERO);
+        step.preconditioner.resize(n, glam::DMat3::ZERO);
+        step.constraints.clear();
+        self.system.linearise((&self.x, &self.v), self.gravity, h, &mut step.rhs, &mut step.preconditioner);
+        self.hold(h, &mut step.constraints);
         self.contacts.constrain(
             &self.bodies,
             self.contact,
-            (&self.x, &self.v, &held),
+            (&self.x, &self.v, &self.held),
             (self.time, h),
             self.system.scaled_masses(),
-            &mut force,
-            &mut constraints,
+            &mut step.rhs,
+            &mut step.constraints,
         );
-        LinearStep {
-            error_floor: self.system.scaled_masses().iter().sum::<f64>() * VELOCITY_FLOOR * VELOCITY_FLOOR,
-            rhs: self.system.rhs(&force, &self.v),
-            preconditioner: self.system.block_jacobi(),
-            constraints,
-        }
+        step.error_floor = self.system.scaled_masses().iter().sum::<f64>() * VELOCITY_FLOOR * VELOCITY_FLOOR;
     }
 
     /// Advance by `h`: one linearised backward Euler step, or — if a stretch spring's strain grew by
     /// more than [`STRAIN_JUMP`] in it, which means the linearisation at the start missed the
     /// geometry (a fast particle stopped by a contact while its neighbours sweep past it) — two steps
-    /// of `h/2`, up to [`MAX_HALVINGS`] times (Baraff & Witkin 1998, §5).
-    fn advance(&mut self, h: f64, halvings: u32) -> PcgReport {
+    /// of `h/2`, up to [`MAX_HALVINGS`] times (Baraff & Witkin 1998, §5). Returns the solves' report
+    /// and the springs' energy at the end.
+    fn advance(&mut self, h: f64, halvings: u32) -> (PcgReport, f64) {
         let saved = (halvings < MAX_HALVINGS)
             .then(|| (self.x.clone(), self.v.clone(), self.dv.clone(), self.contacts.clone(), self.time));
-        let report = self.single_step(h);
-        let Some((x, v, dv, contacts, time)) = saved else { return report };
-        if self.system.strain_jump(&self.x) <= STRAIN_JUMP {
-            return report;
+        let (report, springs) = self.single_step(h);
+        let Some((x, v, dv, contacts, time)) = saved else { return (report, springs.energy) };
+        if springs.strain_jump <= STRAIN_JUMP {
+            return (report, springs.energy);
         }
         (self.x, self.v, self.contacts, self.time) = (x, v, contacts, time);
         self.dv = dv.iter().map(|d| *d * 0.5).collect();
-        let first = self.advance(0.5 * h, halvings + 1);
-        let second = self.advance(0.5 * h, halvings + 1);
-        PcgReport {
+        let (first, _) = self.advance(0.5 * h, halvings + 1);
+        let (second, energy) = self.advance(0.5 * h, halvings + 1);
+        let report = PcgReport {
             iterations: report.iterations + first.iterations + second.iterations,
             residual: first.residual.max(second.residual),
             relative_residual: first.relative_residual.max(second.relative_residual),
             converged: first.converged && second.converged,
-        }
+        };
+        (report, energy)
     }
 
-    /// One linearised backward Euler step of `h`, solved by the filtered PCG.
-    fn single_step(&mut self, h: f64) -> PcgReport {
-        let step = self.linearise_for(h);
-        let system = &self.system;
-        let mut residual = vec![DVec3::ZERO; self.x.len()];
+    /// One linearised backward Euler step of `h`, solved by the filtered PCG; the springs at its end.
+    fn single_step(&mut self, h: f64) -> (PcgReport, SpringState) {
+        let mut step = std::mem::take(&mut self.work);
+        self.linearise_into(h, &mut step);
         let report = filtered_pcg::solve(
-            system,
+            &self.system,
             &step.preconditioner,
             &step.constraints,
             &step.rhs,
             &mut self.dv,
             Stop { tolerance: self.tolerance, floor: step.error_floor, max_iterations: self.iterations },
-            &mut residual,
+            &mut self.residual,
         );
-        self.contacts.update(self.contact, &residual, h);
+        self.work = step;
+        self.contacts.update(self.contact, &self.residual, h);
         for ((x, v), dv) in self.x.iter_mut().zip(&mut self.v).zip(&self.dv) {
             *v += *dv;
             *x += *v * h;
         }
         self.time += h;
-        report
+        (report, self.system.measure(&self.x))
     }
 
     /// Anchors and drags (reached at the end of a step of `h`) as constraints; marks held particles.
-    fn hold(&self, h: f64, held: &mut [bool], constraints: &mut Vec<Constraint>) {
+    fn hold(&mut self, h: f64, constraints: &mut Vec<Constraint>) {
+        let held = &mut self.held;
         held.copy_from_slice(&self.anchored);
         for (i, _) in self.anchored.iter().enumerate().filter(|(_, a)| **a) {
             constraints.push(Constraint { particle: i, filter: glam::DMat3::ZERO, z: -self.v[i] });
@@ -340,9 +350,9 @@ impl Solver for Cloth {
 
     fn step(&mut self) -> Result<StepStats, SolverError> {
         let start = Instant::now();
-        let report = self.advance(self.h, 0);
+        let (report, spring_energy) = self.advance(self.h, 0);
         self.steps += 1;
-        let energy = self.system.energy(&self.x, &self.v, &self.rest, self.gravity);
+        let energy = spring_energy + self.system.particle_energy(&self.x, &self.v, &self.rest, self.gravity);
         check_finite(self.steps, self.time, &self.x, energy, self.energy_limit)?;
         Ok(StepStats {
             wall_seconds: start.elapsed().as_secs_f64(),

@@ -11,11 +11,13 @@
 //!
 //! Each spring contributes `G = h k_d I + h² (a x̂x̂ᵀ + b I)` to the system matrix (`+G` on both
 //! diagonal blocks, `−G` off the diagonal), stored as `(x̂, h² a, h k_d + h² b)` ([`RankOne`]): a
-//! product with the matrix is one pass over the springs, about 15 flops each.
+//! product with the matrix is one pass over the springs, about 15 flops each. The pass that
+//! linearises the springs also accumulates the right side and the diagonal blocks, and the pass that
+//! measures the state after a step yields both the springs' energy and their strain growth.
 
 use glam::{DMat3, DVec3};
 
-use super::graph::{SpringGraph, SpringKind};
+use super::graph::SpringGraph;
 use crate::energy::springs::{self, Buckling};
 use crate::linalg::filtered_pcg::Operator;
 use crate::linalg::isa;
@@ -47,28 +49,50 @@ impl RankOne {
         d * self.c + self.dir * (self.a * self.dir.dot(d))
     }
 
-    /// Upper triangle (xx, xy, xz, yy, yz, zz).
-    fn upper(&self) -> [f64; 6] {
+    #[inline(always)]
+    fn matrix(&self) -> DMat3 {
         let (x, a, c) = (self.dir, self.a, self.c);
-        [a * x.x * x.x + c, a * x.x * x.y, a * x.x * x.z, a * x.y * x.y + c, a * x.y * x.z, a * x.z * x.z + c]
+        let (ax, ay, az) = (x * (a * x.x), x * (a * x.y), x * (a * x.z));
+        DMat3::from_cols(ax + DVec3::X * c, ay + DVec3::Y * c, az + DVec3::Z * c)
     }
 }
 
-/// The cloth's springs, masses and the current step's linear system.
+/// Springs whose lengths [`lengths`] takes at once.
+const LANES: usize = 4;
+
+/// The lengths `r = |xⱼ − xᵢ|` of up to [`LANES`] springs, the square roots taken together (one
+/// vector instruction where the CPU has one).
+#[inline(always)]
+fn lengths(pairs: &[[usize; 2]], x: &[DVec3]) -> [f64; LANES] {
+    let mut squared = [0.0; LANES];
+    for (q, &[i, j]) in squared.iter_mut().zip(pairs) {
+        *q = (x[j] - x[i]).length_squared();
+    }
+    squared.map(f64::sqrt)
+}
+
+/// The springs at a state reached by a step ([`ClothSystem::measure`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpringState {
+    /// The springs' energy, J.
+    pub energy: f64,
+    /// The largest growth of a stretch spring's strain `(|x'| − |x|)/L` since the last linearisation.
+    pub strain_jump: f64,
+}
+
+/// The cloth's springs, masses and the current step's matrix.
 #[derive(Debug, Clone)]
 pub struct ClothSystem {
     graph: SpringGraph,
     params: SpringParams,
-    /// One entry per spring; only buckling springs' entries are used.
+    /// The buckling springs' responses (spring `graph.stretch + k` is entry `k`).
     buckling: Vec<Buckling>,
     /// `m̃ᵢ = mᵢ / wᵢ`.
     scaled_mass: Vec<f64>,
-    /// Per spring, the kept stiffness `K = a x̂x̂ᵀ + b I` and the step's block `G = h k_d I + h² K`.
-    stiffness: Vec<RankOne>,
+    /// Per spring, the step's block `G = h k_d I + h² K` with the kept stiffness `K = a x̂x̂ᵀ + b I`.
     step_matrix: Vec<RankOne>,
     /// Spring lengths at the last linearisation.
     length: Vec<f64>,
-    h: f64,
 }
 
 impl ClothSystem {
@@ -76,14 +100,12 @@ impl ClothSystem {
     pub fn new(graph: SpringGraph, params: SpringParams) -> Self {
         let scaled_mass = graph.masses.iter().zip(&graph.weights).map(|(m, w)| m / w).collect();
         let mut system = Self {
-            stiffness: vec![RankOne::default(); graph.pairs.len()],
             step_matrix: vec![RankOne::default(); graph.pairs.len()],
             length: vec![0.0; graph.pairs.len()],
             graph,
             params,
             buckling: Vec::new(),
             scaled_mass,
-            h: 0.0,
         };
         system.set_params(params);
         system
@@ -92,8 +114,9 @@ impl ClothSystem {
     /// Change the spring parameters (recomputes the buckling branches).
     pub fn set_params(&mut self, params: SpringParams) {
         self.params = params;
-        let (rest, width) = (&self.graph.rest, &self.graph.width);
-        self.buckling = rest.iter().zip(width).map(|(&l, &w)| Buckling::new(l, params.k_b * w, params.c_b)).collect();
+        let g = &self.graph;
+        self.buckling =
+            (g.stretch..g.pairs.len()).map(|s| Buckling::new(g.rest[s], params.k_b * g.width[s], params.c_b)).collect();
     }
 
     /// The spring parameters.
@@ -117,79 +140,126 @@ impl ClothSystem {
         &self.scaled_mass
     }
 
-    /// Evaluate forces at `(x, v)` with gravity `g` into `force` (scaled by `1/w`) and linearise them
-    /// for a step of `h`.
-    pub fn linearise(&mut self, x: &[DVec3], v: &[DVec3], g: DVec3, h: f64, force: &mut [DVec3]) {
+    /// Linearise the forces at `(x, v)` with gravity `g` (scaled by `1/w`) for a step of `h`: the
+    /// step's matrix `A` (kept for [`Self::apply`]), its right side `rhs = h f̃₀ − h² K v₀` and
+    /// `preconditioner`, the inverses of `A`'s 3 × 3 diagonal blocks (block Jacobi).
+    pub fn linearise(
+        &mut self,
+        (x, v): (&[DVec3], &[DVec3]),
+        g: DVec3,
+        h: f64,
+        rhs: &mut [DVec3],
+        preconditioner: &mut [DMat3],
+    ) {
         struct Linearise<'a> {
             system: &'a mut ClothSystem,
             state: (&'a [DVec3], &'a [DVec3]),
             g: DVec3,
             h: f64,
-            force: &'a mut [DVec3],
+            out: (&'a mut [DVec3], &'a mut [DMat3]),
         }
         impl isa::Kernel for Linearise<'_> {
             type Output = ();
             #[inline(always)]
             fn run(self) {
-                self.system.linearise_here(self.state.0, self.state.1, self.g, self.h, self.force);
+                self.system.linearise_here(self.state, self.g, self.h, self.out);
             }
         }
-        isa::best(Linearise { system: self, state: (x, v), g, h, force });
+        isa::best(Linearise { system: self, state: (x, v), g, h, out: (rhs, preconditioner) });
     }
 
     /// [`Self::linearise`], compiled for whatever instruction set its caller is.
     #[inline(always)]
-    fn linearise_here(&mut self, x: &[DVec3], v: &[DVec3], g: DVec3, h: f64, force: &mut [DVec3]) {
-        self.h = h;
-        for (f, m) in force.iter_mut().zip(&self.scaled_mass) {
-            *f = g * *m;
+    fn linearise_here(
+        &mut self,
+        (x, v): (&[DVec3], &[DVec3]),
+        g: DVec3,
+        h: f64,
+        (rhs, diagonal): (&mut [DVec3], &mut [DMat3]),
+    ) {
+        for ((b, d), m) in rhs.iter_mut().zip(diagonal.iter_mut()).zip(&self.scaled_mass) {
+            *b = g * (h * m);
+            *d = DMat3::from_diagonal(DVec3::splat(*m));
         }
-        let (k_s, k_d) = (self.params.k_s, self.params.k_d);
-        for s in 0..self.graph.pairs.len() {
-            let [i, j] = self.graph.pairs[s];
-            let d = x[j] - x[i];
-            let r = d.length();
-            self.length[s] = r;
-            let (tension, stiffness) = match self.graph.kinds[s] {
-                SpringKind::Stretch => springs::stretch(r, self.graph.rest[s], k_s).tension_stiffness(),
-                SpringKind::Buckling => self.buckling[s].tension_stiffness(r),
-            };
-            let dir = if r > 0.0 { d / r } else { DVec3::ZERO };
-            let f = dir * tension + (v[j] - v[i]) * k_d;
-            force[i] += f;
-            force[j] -= f;
-            let (a, b) = match self.graph.kinds[s] {
-                // Stretched: the exact Jacobian k_s x̂x̂ᵀ + (T/r)(I − x̂x̂ᵀ). Slack (T = 0): still k_s x̂x̂ᵀ
-                // along the spring — see the module doc.
-                SpringKind::Stretch if r > 0.0 => (k_s - tension / r, tension / r),
-                // Longitudinal term only (Choi & Ko), S ≥ 0.
-                _ => (stiffness, 0.0),
-            };
-            // K = a x̂x̂ᵀ + b I, and G = h k_d I + h² K.
-            let h2 = h * h;
-            self.stiffness[s] = RankOne { dir, a, c: b };
-            self.step_matrix[s] = RankOne { dir, a: h2 * a, c: h2 * b + h * k_d };
+        let (k_s, k_d, h2) = (self.params.k_s, self.params.k_d, h * h);
+        let stretch = self.graph.stretch;
+        for (chunk, pairs) in self.graph.pairs.chunks(LANES).enumerate() {
+            let r = lengths(pairs, x);
+            let inverse = r.map(|r| if r > 0.0 { 1.0 / r } else { 0.0 });
+            for (k, &[i, j]) in pairs.iter().enumerate() {
+                let (s, r, inverse) = (chunk * LANES + k, r[k], inverse[k]);
+                self.length[s] = r;
+                let dir = (x[j] - x[i]) * inverse;
+                let (tension, stiffness) = if s < stretch {
+                    // Stretched: the exact Jacobian k_s x̂x̂ᵀ + (T/r)(I − x̂x̂ᵀ). Slack (T = 0): still k_s x̂x̂ᵀ
+                    // along the spring — see the module doc.
+                    let tension = springs::stretch(r, self.graph.rest[s], k_s).tension;
+                    (tension, RankOne { dir, a: k_s - tension * inverse, c: tension * inverse })
+                } else {
+                    // Longitudinal term only (Choi & Ko), S ≥ 0.
+                    let (tension, s) = self.buckling[s - stretch].tension_stiffness(r);
+                    (tension, RankOne { dir, a: s, c: 0.0 })
+                };
+                // Force on i (spring and damping), and the right side's −h² K (vᵢ − vⱼ).
+                let dv = v[i] - v[j];
+                let y = (dir * tension - dv * k_d) * h - stiffness.times(dv) * h2;
+                rhs[i] += y;
+                rhs[j] -= y;
+                let step = RankOne { dir, a: h2 * stiffness.a, c: h2 * stiffness.c + h * k_d };
+                self.step_matrix[s] = step;
+                let block = step.matrix();
+                diagonal[i] += block;
+                diagonal[j] += block;
+            }
+        }
+        for d in diagonal.iter_mut() {
+            *d = d.inverse();
         }
     }
 
-    /// The largest growth of a stretch spring's strain `(|x'| − |x|)/L` from the last linearisation to `x`.
-    pub fn strain_jump(&self, x: &[DVec3]) -> f64 {
-        let g = &self.graph;
-        (0..g.pairs.len())
-            .filter(|&s| g.kinds[s] == SpringKind::Stretch)
-            .map(|s| ((x[g.pairs[s][1]] - x[g.pairs[s][0]]).length() - self.length[s]) / g.rest[s])
-            .fold(0.0, f64::max)
+    /// The springs at `x`, a state reached from the last linearisation: their energy and strain growth.
+    pub fn measure(&self, x: &[DVec3]) -> SpringState {
+        struct Measure<'a>(&'a ClothSystem, &'a [DVec3]);
+        impl isa::Kernel for Measure<'_> {
+            type Output = SpringState;
+            #[inline(always)]
+            fn run(self) -> SpringState {
+                self.0.measure_here(self.1)
+            }
+        }
+        isa::best(Measure(self, x))
     }
 
-    /// `out += Σ_springs` of the blocks `blocks` applied to `v` as a Laplacian: `+B (vᵢ − vⱼ)` on `i`,
-    /// `−B (vᵢ − vⱼ)` on `j`.
+    /// [`Self::measure`], compiled for whatever instruction set its caller is.
     #[inline(always)]
-    fn add_spring_product(&self, blocks: &[RankOne], v: &[DVec3], out: &mut [DVec3]) {
-        for (&[i, j], g) in self.graph.pairs.iter().zip(blocks) {
-            let y = g.times(v[i] - v[j]);
-            out[i] += y;
-            out[j] -= y;
+    fn measure_here(&self, x: &[DVec3]) -> SpringState {
+        let g = &self.graph;
+        // Plain loops: an iterator's `sum` is a separate function, not inlined into the kernel.
+        let (mut energy, mut strain_jump) = (0.0, 0.0f64);
+        for s in 0..g.stretch {
+            let [i, j] = g.pairs[s];
+            let r = (x[j] - x[i]).length();
+            energy += springs::stretch(r, g.rest[s], self.params.k_s).energy;
+            strain_jump = strain_jump.max((r - self.length[s]) / g.rest[s]);
         }
+        for (&[i, j], b) in g.pairs[g.stretch..].iter().zip(&self.buckling) {
+            energy += b.energy((x[j] - x[i]).length());
+        }
+        SpringState { energy, strain_jump }
+    }
+
+    /// `½ Σ m̃ |v|²` minus the work of gravity `Σ m̃ g·(x − rest)`, J.
+    pub fn particle_energy(&self, x: &[DVec3], v: &[DVec3], rest: &[DVec3], g: DVec3) -> f64 {
+        let mut e = 0.0;
+        for (((x, v), r), m) in x.iter().zip(v).zip(rest).zip(&self.scaled_mass) {
+            e += 0.5 * m * v.length_squared() - m * g.dot(*x - *r);
+        }
+        e
+    }
+
+    /// Springs' energy at `x` plus [`Self::particle_energy`], J.
+    pub fn energy(&self, x: &[DVec3], v: &[DVec3], rest: &[DVec3], g: DVec3) -> f64 {
+        self.measure(x).energy + self.particle_energy(x, v, rest, g)
     }
 
     /// `out = A v` with the step's matrix `A = M̃ + h D + h² K`.
@@ -198,66 +268,11 @@ impl ClothSystem {
         for ((o, v), m) in out.iter_mut().zip(v).zip(&self.scaled_mass) {
             *o = *v * *m;
         }
-        self.add_spring_product(&self.step_matrix, v, out);
-    }
-
-    /// The step's right side `b = h f̃₀ − h² K v₀`.
-    pub fn rhs(&self, force: &[DVec3], v: &[DVec3]) -> Vec<DVec3> {
-        let mut kv = vec![DVec3::ZERO; v.len()];
-        self.add_spring_product(&self.stiffness, v, &mut kv);
-        force.iter().zip(&kv).map(|(f, kv)| *f * self.h - *kv * (self.h * self.h)).collect()
-    }
-
-    /// Inverses of the 3 × 3 diagonal blocks of `A` (the block-Jacobi preconditioner).
-    pub fn block_jacobi(&self) -> Vec<DMat3> {
-        let mut diag: Vec<[f64; 6]> = self.scaled_mass.iter().map(|&m| [m, 0.0, 0.0, m, 0.0, m]).collect();
         for (&[i, j], g) in self.graph.pairs.iter().zip(&self.step_matrix) {
-            let g = g.upper();
-            for k in 0..6 {
-                diag[i][k] += g[k];
-                diag[j][k] += g[k];
-            }
+            let y = g.times(v[i] - v[j]);
+            out[i] += y;
+            out[j] -= y;
         }
-        diag.iter()
-            .map(|d| DMat3::from_cols_array(&[d[0], d[1], d[2], d[1], d[3], d[4], d[2], d[4], d[5]]).inverse())
-            .collect()
-    }
-
-    /// Springs' energy at `x` plus `½ Σ m̃ |v|²` minus the work of gravity `Σ m̃ g·(x − rest)`, J.
-    pub fn energy(&self, x: &[DVec3], v: &[DVec3], rest: &[DVec3], g: DVec3) -> f64 {
-        struct Energy<'a> {
-            system: &'a ClothSystem,
-            state: [&'a [DVec3]; 3],
-            g: DVec3,
-        }
-        impl isa::Kernel for Energy<'_> {
-            type Output = f64;
-            #[inline(always)]
-            fn run(self) -> f64 {
-                let [x, v, rest] = self.state;
-                self.system.energy_here(x, v, rest, self.g)
-            }
-        }
-        isa::best(Energy { system: self, state: [x, v, rest], g })
-    }
-
-    /// [`Self::energy`], compiled for whatever instruction set its caller is.
-    #[inline(always)]
-    fn energy_here(&self, x: &[DVec3], v: &[DVec3], rest: &[DVec3], g: DVec3) -> f64 {
-        let graph = &self.graph;
-        // A plain loop: an iterator's `sum` is a separate function, not inlined into the kernel.
-        let mut e = 0.0;
-        for (s, &[i, j]) in graph.pairs.iter().enumerate() {
-            let r = (x[j] - x[i]).length();
-            e += match graph.kinds[s] {
-                SpringKind::Stretch => springs::stretch(r, graph.rest[s], self.params.k_s).energy,
-                SpringKind::Buckling => self.buckling[s].energy(r),
-            };
-        }
-        for (((x, v), r), m) in x.iter().zip(v).zip(rest).zip(&self.scaled_mass) {
-            e += 0.5 * m * v.length_squared() - m * g.dot(*x - *r);
-        }
-        e
     }
 }
 
@@ -287,9 +302,20 @@ mod tests {
         (ClothSystem::new(graph, params), x, v)
     }
 
+    /// `linearise` at `(x, v)` with no gravity and `h = 1`: the linearised system and its right side
+    /// `f(x, v) − K v`, and the block-Jacobi preconditioner.
+    fn linearised(sys: &ClothSystem, x: &[DVec3], v: &[DVec3]) -> (ClothSystem, Vec<DVec3>, Vec<DMat3>) {
+        let (mut sys, n) = (sys.clone(), x.len());
+        let (mut rhs, mut preconditioner) = (vec![DVec3::ZERO; n], vec![DMat3::ZERO; n]);
+        sys.linearise((x, v), DVec3::ZERO, 1.0, &mut rhs, &mut preconditioner);
+        (sys, rhs, preconditioner)
+    }
+
     /// With every stretch spring taut (where the matrix keeps their exact Jacobian) and buckling off,
-    /// the step matrix is the exact derivative of the forces, `f(x + dx, v + dv) ≈ f + ∂f/∂x dx +
-    /// ∂f/∂v dv`; and it is symmetric.
+    /// the step matrix is the exact linearisation of the forces. With `h = 1` the right side is
+    /// `f(x, v) − K v` and `A = M̃ + D + K`: at `v = 0` and without damping its derivative along `dx` is
+    /// `∂f/∂x dx = −K dx = −(A − M̃) dx`; along a velocity change `dv` it is `∂f/∂v dv − K dv =
+    /// −(A − M̃) dv`. The matrix is symmetric and the preconditioner inverts its diagonal blocks.
     #[test]
     fn matrix_is_symmetric_and_matches_the_derivative_of_the_stretch_and_damping_forces() {
         let (mut sys, _, v) = system();
@@ -299,51 +325,66 @@ mod tests {
         let x: Vec<DVec3> =
             rest.positions().iter().map(|p| DVec3::new(p.x * 1.08, 0.02 * (11.0 * p.x).sin(), p.z * 1.08)).collect();
         let g = sys.graph();
-        for (s, &[i, j]) in g.pairs.iter().enumerate() {
-            if g.kinds[s] == SpringKind::Stretch {
-                assert!((x[j] - x[i]).length() > g.rest[s], "spring {s} is taut");
-            }
+        for (s, &[i, j]) in g.pairs[..g.stretch].iter().enumerate() {
+            assert!((x[j] - x[i]).length() > g.rest[s], "spring {s} is taut");
         }
         let n = x.len();
-        let mut f0 = vec![DVec3::ZERO; n];
-        sys.linearise(&x, &v, DVec3::ZERO, 1.0, &mut f0);
-        // With h = 1: A = M̃ + D + K, so (A − M̃) dx = −∂f/∂x dx − ∂f/∂v dx for the same dx.
         let dx: Vec<DVec3> = (0..n).map(|i| DVec3::new((i as f64).sin(), (i as f64 * 0.7).cos(), 0.3)).collect();
-        let mut a_dx = vec![DVec3::ZERO; n];
-        sys.apply(&dx, &mut a_dx);
         let e = 1e-7;
-        let plus: Vec<DVec3> = x.iter().zip(&dx).map(|(x, d)| *x + *d * e).collect();
-        let minus: Vec<DVec3> = x.iter().zip(&dx).map(|(x, d)| *x - *d * e).collect();
-        let vp: Vec<DVec3> = v.iter().zip(&dx).map(|(v, d)| *v + *d * e).collect();
-        let vm: Vec<DVec3> = v.iter().zip(&dx).map(|(v, d)| *v - *d * e).collect();
-        let (mut fp, mut fm) = (vec![DVec3::ZERO; n], vec![DVec3::ZERO; n]);
-        let mut probe = sys.clone();
-        probe.linearise(&plus, &vp, DVec3::ZERO, 1.0, &mut fp);
-        probe.linearise(&minus, &vm, DVec3::ZERO, 1.0, &mut fm);
-        let scale = a_dx.iter().map(|v| v.abs().max_element()).fold(0.0, f64::max);
-        for i in 0..n {
-            let fd = (fp[i] - fm[i]) / (2.0 * e);
-            let want = a_dx[i] - dx[i] * sys.scaled_masses()[i];
-            assert!((fd + want).abs().max_element() < 1e-6 * scale, "particle {i}: {fd} vs {}", -want);
+        let along = |a: &[DVec3], s: f64| -> Vec<DVec3> { a.iter().zip(&dx).map(|(a, d)| *a + *d * s).collect() };
+        let still = vec![DVec3::ZERO; n];
+        let undamped = {
+            let mut s = sys.clone();
+            s.set_params(SpringParams { k_d: 0.0, ..sys.params() });
+            s
+        };
+        // (system, x, v, direction of the derivative: positions or velocities)
+        for (base, x, v, positions) in [(&undamped, &x, &still, true), (&sys, &x, &v, false)] {
+            let (lin, _, preconditioner) = linearised(base, x, v);
+            let mut a_dx = vec![DVec3::ZERO; n];
+            lin.apply(&dx, &mut a_dx);
+            let ((_, bp, _), (_, bm, _)) = if positions {
+                (linearised(base, &along(x, e), v), linearised(base, &along(x, -e), v))
+            } else {
+                (linearised(base, x, &along(v, e)), linearised(base, x, &along(v, -e)))
+            };
+            let scale = a_dx.iter().map(|v| v.abs().max_element()).fold(0.0, f64::max);
+            for i in 0..n {
+                let fd = (bp[i] - bm[i]) / (2.0 * e);
+                let want = -(a_dx[i] - dx[i] * lin.scaled_masses()[i]);
+                assert!((fd - want).abs().max_element() < 1e-6 * scale, "particle {i}: {fd} vs {want}");
+            }
+            // Symmetry: uᵀ A w = wᵀ A u.
+            let u: Vec<DVec3> = (0..n).map(|i| DVec3::new(0.2, (i as f64).cos(), -(i as f64 * 0.3).sin())).collect();
+            let mut a_u = vec![DVec3::ZERO; n];
+            lin.apply(&u, &mut a_u);
+            let (uaw, wau): (f64, f64) =
+                (u.iter().zip(&a_dx).map(|(a, b)| a.dot(*b)).sum(), dx.iter().zip(&a_u).map(|(a, b)| a.dot(*b)).sum());
+            assert!((uaw - wau).abs() < 1e-12 * uaw.abs().max(1.0));
+            // The diagonal block of particle i is read off A's product with unit vectors at i.
+            for i in (0..n).step_by(7) {
+                let column = |k: usize| {
+                    let mut unit = vec![DVec3::ZERO; n];
+                    unit[i][k] = 1.0;
+                    let mut a_unit = vec![DVec3::ZERO; n];
+                    lin.apply(&unit, &mut a_unit);
+                    a_unit[i]
+                };
+                let block = DMat3::from_cols(column(0), column(1), column(2));
+                let off = (preconditioner[i] * block - DMat3::IDENTITY).abs().to_cols_array();
+                assert!(off.iter().all(|d| *d < 1e-12), "particle {i}: P⁻¹ A_ii = {}", preconditioner[i] * block);
+            }
         }
-        // Symmetry: uᵀ A w = wᵀ A u.
-        let u: Vec<DVec3> = (0..n).map(|i| DVec3::new(0.2, (i as f64).cos(), -(i as f64 * 0.3).sin())).collect();
-        let mut a_u = vec![DVec3::ZERO; n];
-        sys.apply(&u, &mut a_u);
-        let (uaw, wau): (f64, f64) =
-            (u.iter().zip(&a_dx).map(|(a, b)| a.dot(*b)).sum(), dx.iter().zip(&a_u).map(|(a, b)| a.dot(*b)).sum());
-        assert!((uaw - wau).abs() < 1e-12 * uaw.abs().max(1.0));
     }
 
     /// Forces are minus the gradient of the springs' energy (both spring kinds active).
     #[test]
     fn forces_are_minus_the_energy_gradient() {
-        let (mut sys, x, _) = system();
+        let (sys, x, _) = system();
         let n = x.len();
         let still = vec![DVec3::ZERO; n];
-        let mut f = vec![DVec3::ZERO; n];
-        sys.linearise(&x, &still, DVec3::ZERO, 1.0, &mut f);
-        let probe = sys.clone();
+        // At rest velocities and with h = 1 the right side is the force.
+        let (probe, f, _) = linearised(&sys, &x, &still);
         let scale = f.iter().map(|v| v.abs().max_element()).fold(0.0, f64::max);
         for i in (0..n).step_by(3) {
             for a in 0..3 {
