@@ -77,20 +77,8 @@ pub fn stretch(r: f64, rest: f64, k_s: f64) -> Spring {
 /// whose chord is `uL`).
 pub fn arc_half_angle(u: f64) -> f64 {
     let u = u.clamp(0.0, 1.0);
-    let (mut lo, mut hi) = (0.0f64, std::f64::consts::PI);
     // sinc is strictly decreasing on (0, π): bisection to full precision.
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if mid == lo || mid == hi {
-            break;
-        }
-        if sinc(mid) > u {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
+    bisect(|s| sinc(s) > u, 0.0, std::f64::consts::PI)
 }
 
 fn sinc(s: f64) -> f64 {
