@@ -149,3 +149,23 @@ fn implicit_is_stable_at_a_frame_step_and_settles_to_the_static_equilibrium() {
     eprintln!("after 5 s of damped ds-implicit at 1/30 s the tip sag is {a:.5} m; ds-static gives {b:.5} m");
     assert!((a - b).abs() < 1e-3 * b.abs(), "{a} vs {b}");
 }
+
+/// The estimated stable substep follows the stiffness (four times stiffer: about half the step, as
+/// `ω_max ∝ √k`) and ignores the load (a gravity edit keeps it exactly).
+#[test]
+fn the_stable_limit_follows_the_stiffness_not_the_load() {
+    let setup = SHORT.setup("ds", DYN_MATERIAL, "");
+    let mut ds = DsExplicit::new(&setup).unwrap();
+    let limit = ds.stable_limit();
+    ds.set_param("gravity_y", -30.0).unwrap();
+    assert_eq!(ds.stable_limit(), limit);
+    let stiffness: Vec<(&str, f64)> =
+        ds.params().iter().filter(|p| p.spec.name.starts_with("k_")).map(|p| (p.spec.name, p.value)).collect();
+    assert_eq!(stiffness.len(), 3, "{stiffness:?}");
+    for (name, value) in stiffness {
+        ds.set_param(name, 4.0 * value).unwrap();
+    }
+    let ratio = ds.stable_limit() / limit;
+    eprintln!("stable substep {limit:.4e} s; four times stiffer: {:.4e} s (× {ratio:.4})", ds.stable_limit());
+    assert!((ratio - 0.5).abs() < 0.05, "× {ratio}");
+}

@@ -4,7 +4,7 @@
 use glam::{DVec3, Vec3};
 
 use super::gizmo;
-use crate::collision::{Body, Shape};
+use crate::collision::{Motion, Shape};
 use crate::mesh::generate;
 use crate::render::{Camera, Frame, Marker, MeshDraw};
 use crate::scene::Setup;
@@ -35,17 +35,18 @@ pub struct ViewOptions {
     pub wireframe: bool,
 }
 
-/// A collider's picture: its geometry in the body frame and placed at `t = 0`.
+/// A collider's picture.
 #[derive(Debug, Clone)]
-struct ColliderDraw {
-    local: MeshDraw,
-    at_rest: MeshDraw,
-    body: Body,
+enum ColliderDraw {
+    /// A body that never moves, drawn where it is.
+    Still(MeshDraw),
+    /// A moving body: its geometry in the body frame, placed by its motion from `origin` each frame.
+    Moving { local: MeshDraw, origin: DVec3, motion: Motion },
 }
 
-/// `local` moved to the body's pose at time `t`.
-fn placed(local: &MeshDraw, body: &Body, t: f64) -> MeshDraw {
-    let (centre, rotation) = body.pose(t);
+/// `local` moved to the pose at time `t` of a frame that `motion` takes from `origin`.
+fn placed(local: &MeshDraw, origin: DVec3, motion: &Motion, t: f64) -> MeshDraw {
+    let (centre, rotation) = motion.pose(origin, t);
     let (c, r) = (centre.as_vec3(), rotation.as_quat());
     MeshDraw {
         positions: local.positions.iter().map(|&p| (r * Vec3::from(p) + c).to_array()).collect(),
@@ -111,7 +112,11 @@ impl SceneView {
                     draw
                 }
             };
-            colliders.push(ColliderDraw { at_rest: placed(&local, body, 0.0), local, body: body.clone() });
+            colliders.push(if body.is_moving() {
+                ColliderDraw::Moving { local, origin: body.origin, motion: body.motion }
+            } else {
+                ColliderDraw::Still(placed(&local, body.origin, &body.motion, 0.0))
+            });
         }
         Self {
             camera,
@@ -143,7 +148,10 @@ impl SceneView {
         let spacing = nice_spacing(self.grid_extent / 10.0);
         frame.ground_grid(self.grid_height, self.grid_extent, spacing, GRID);
         for c in &self.colliders {
-            frame.meshes.push(if c.body.is_moving() { placed(&c.local, &c.body, time) } else { c.at_rest.clone() });
+            frame.meshes.push(match c {
+                ColliderDraw::Still(draw) => draw.clone(),
+                ColliderDraw::Moving { local, origin, motion } => placed(local, *origin, motion, time),
+            });
         }
         let mut surface = MeshDraw::from_positions(
             positions.iter().map(|&p| f32x3(p)).collect(),

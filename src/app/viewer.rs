@@ -138,13 +138,20 @@ impl ApplicationHandler for App {
     }
 }
 
+/// A scene's window title, static picture and camera orbit.
+fn scene_parts(setup: &Setup) -> (String, SceneView, Orbit) {
+    let view = SceneView::new(setup);
+    let orbit = Orbit::from_camera(&view.camera());
+    (format!("shellwarp — {}", setup.scene.name), view, orbit)
+}
+
 impl Running {
     fn new(event_loop: &ActiveEventLoop, options: &ViewerOptions, loaded: Loaded) -> anyhow::Result<Self> {
         let Loaded { source, setup, solver } = loaded;
+        let (title, view, orbit) = scene_parts(&setup);
         let (w, h) = options.size;
-        let attributes = Window::default_attributes()
-            .with_title(format!("shellwarp — {}", setup.scene.name))
-            .with_inner_size(winit::dpi::PhysicalSize::new(w, h));
+        let attributes =
+            Window::default_attributes().with_title(title).with_inner_size(winit::dpi::PhysicalSize::new(w, h));
         let window = Arc::new(event_loop.create_window(attributes).context("creating the window")?);
         let surface = WindowSurface::new(event_loop, window.clone())?;
         let egui_state = egui_winit::State::new(
@@ -156,8 +163,6 @@ impl Running {
             None,
         );
         let sim = SimHandle::spawn(solver, options.paused, Pacing::Scaled(1.0));
-        let view = SceneView::new(&setup);
-        let orbit = Orbit::from_camera(&view.camera());
         let panel = PanelState::new(
             scene::builtin_names().into_iter().map(String::from).collect(),
             METHODS.iter().map(|m| m.name.to_string()).collect(),
@@ -301,9 +306,9 @@ impl Running {
             None => {}
             Some(Ok(Loaded { source, setup, solver })) => {
                 self.sim.send(Command::Replace(solver));
-                self.view = SceneView::new(&setup);
-                self.orbit = Orbit::from_camera(&self.view.camera());
-                self.window.set_title(&format!("shellwarp — {}", setup.scene.name));
+                let title;
+                (title, self.view, self.orbit) = scene_parts(&setup);
+                self.window.set_title(&title);
                 self.panel.scene.clone_from(&source.scene);
                 self.panel.message = None;
                 self.source = source;

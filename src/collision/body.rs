@@ -56,13 +56,19 @@ pub struct Body {
     pub motion: Motion,
 }
 
+impl Motion {
+    /// Where this motion has taken a frame that started at `origin`, at time `t`: its origin and rotation.
+    pub fn pose(&self, origin: DVec3, t: f64) -> (DVec3, DQuat) {
+        let phase = std::f64::consts::TAU * self.frequency * t;
+        let centre = origin + self.velocity * t + self.amplitude * phase.sin();
+        (centre, DQuat::from_scaled_axis(self.spin * t))
+    }
+}
+
 impl Body {
     /// The body frame's origin and rotation at time `t`.
     pub fn pose(&self, t: f64) -> (DVec3, DQuat) {
-        let m = &self.motion;
-        let phase = std::f64::consts::TAU * m.frequency * t;
-        let centre = self.origin + m.velocity * t + m.amplitude * phase.sin();
-        (centre, DQuat::from_scaled_axis(m.spin * t))
+        self.motion.pose(self.origin, t)
     }
 
     /// Velocity of the body frame's origin at time `t`.

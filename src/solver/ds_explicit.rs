@@ -203,7 +203,10 @@ impl Solver for DsExplicit {
             return Ok(());
         }
         if self.model.set_param(METHOD.name, name, value)? {
-            self.limit = stability_limit(&mut self.model);
+            // The limit depends on stiffness, masses and damping, not on the load.
+            if name != "gravity_y" {
+                self.limit = stability_limit(&mut self.model);
+            }
             return Ok(());
         }
         let all: Vec<ParamSpec> = SHELL_PARAMS.iter().copied().chain([FRAME, SUBSTEP]).collect();
