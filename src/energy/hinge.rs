@@ -27,17 +27,6 @@
 
 use glam::{DMat3, DVec3};
 
-/// The dihedral angle with its gradient and Hessian.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AngleDerivatives {
-    /// The signed angle θ, radians, in (−π, π].
-    pub theta: f64,
-    /// `∂θ/∂x_p` for the four hinge points `[a, b, c, d]`.
-    pub grad: [DVec3; 4],
-    /// `hess[p][q] = ∂²θ/∂x_p∂x_q` (row block p, column block q).
-    pub hess: [[DMat3; 4]; 4],
-}
-
 /// `u vᵀ`.
 pub(crate) fn outer(u: DVec3, v: DVec3) -> DMat3 {
     DMat3::from_cols(u * v.x, u * v.y, u * v.z)
@@ -73,20 +62,6 @@ pub fn angle_gradient(x: &[DVec3; 4]) -> (f64, [DVec3; 4]) {
     let gb = -(gc * s1 + gd * s2);
     let ga = -(gb + gc + gd);
     (theta, [ga, gb, gc, gd])
-}
-
-/// The angle, its gradient and its Hessian (exactly symmetric: the upper blocks are the transposes
-/// of [`angle_hessian_lower`]'s).
-pub fn angle_hessian(x: &[DVec3; 4]) -> AngleDerivatives {
-    let (theta, grad, lower) = angle_hessian_lower(x);
-    let mut hess = [[DMat3::ZERO; 4]; 4];
-    for p in 0..4 {
-        for q in 0..=p {
-            hess[p][q] = lower[lower_index(p, q)];
-            hess[q][p] = lower[lower_index(p, q)].transpose();
-        }
-    }
-    AngleDerivatives { theta, grad, hess }
 }
 
 /// Position of block `(p, q)`, `p ≥ q`, in the row-wise packed lower triangle of a 4 × 4 block matrix.
@@ -156,6 +131,31 @@ pub fn wrapped_difference(theta: f64, rest: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The dihedral angle with its gradient and Hessian.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    struct AngleDerivatives {
+        /// The signed angle θ, radians, in (−π, π].
+        theta: f64,
+        /// `∂θ/∂x_p` for the four hinge points `[a, b, c, d]`.
+        grad: [DVec3; 4],
+        /// `hess[p][q] = ∂²θ/∂x_p∂x_q` (row block p, column block q).
+        hess: [[DMat3; 4]; 4],
+    }
+
+    /// The angle, its gradient and its Hessian (exactly symmetric: the upper blocks are the transposes
+    /// of `angle_hessian_lower`'s).
+    fn angle_hessian(x: &[DVec3; 4]) -> AngleDerivatives {
+        let (theta, grad, lower) = angle_hessian_lower(x);
+        let mut hess = [[DMat3::ZERO; 4]; 4];
+        for p in 0..4 {
+            for q in 0..=p {
+                hess[p][q] = lower[lower_index(p, q)];
+                hess[q][p] = lower[lower_index(p, q)].transpose();
+            }
+        }
+        AngleDerivatives { theta, grad, hess }
+    }
 
     #[test]
     fn cross_matrix_is_the_cross_product() {
