@@ -21,7 +21,7 @@
 //! `∂N/∂p = [r − q]×`, `∂N/∂q = [p − r]×`, `∂N/∂r = [q − p]×` for a triangle `(p, q, r)`:
 //! `∂(∇_c θ)/∂x_k = −(1/|N₁|²) (N₁ ⊗ ∂|e|/∂x_k + |e| (I − 2 n̂₁n̂₁ᵀ) ∂N₁/∂x_k)` and likewise for `d`;
 //! `∂(∇_b θ)/∂x_k = −(∇_c θ ⊗ ∂s₁/∂x_k + s₁ ∂(∇_c θ)/∂x_k + (same for d))`; the `a` rows follow from
-//! translation invariance. Only the lower blocks are computed ([`angle_hessian_lower`]); the upper ones
+//! translation invariance. Only the lower blocks are computed (`angle_hessian_lower`); the upper ones
 //! are their transposes, so the matrix is exactly symmetric. It is verified against central finite
 //! differences for random configurations, near flat, and for |θ| up to 3.
 

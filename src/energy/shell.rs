@@ -260,7 +260,7 @@ impl DiscreteShell {
 
     /// Compute every element's Hessian (already multiplied by its stiffness) and hand it to
     /// `sink(element, vertices, lower)`, in element order, as its lower 3 × 3 blocks `(p, q)`, `p ≥ q`,
-    /// packed by [`lower_index`] (`k(k + 1)/2` blocks for `k` vertices; the upper blocks are their
+    /// packed by `lower_index` (`k(k + 1)/2` blocks for `k` vertices; the upper blocks are their
     /// transposes). Assemblers (see `crate::linalg`) scatter these into a sparse matrix.
     pub fn element_hessians(&self, x: &[DVec3], mode: HessianMode, mut sink: impl FnMut(usize, &[usize], &[DMat3])) {
         self.check_len(x);

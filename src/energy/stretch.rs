@@ -4,7 +4,7 @@
 //! - Triangle area: `E = (A − Ā)²/Ā = (1 − A/Ā)² Ā` for current area `A` and rest area `Ā`.
 //!
 //! Both are unweighted (the stiffness multiplies them in [`super::shell`]). Hessians are returned as
-//! their lower 3 × 3 blocks `∂²E/∂x_p∂x_q` (`p ≥ q`), packed by [`lower_index`]; the upper blocks
+//! their lower 3 × 3 blocks `∂²E/∂x_p∂x_q` (`p ≥ q`), packed by `lower_index`; the upper blocks
 //! are their transposes.
 
 use glam::{DMat3, DVec3};

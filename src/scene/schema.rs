@@ -48,7 +48,7 @@ fn default_gravity() -> [f64; 3] {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields)]
 pub enum MeshSource {
-    /// Regular grid in the y = 0 plane, centred on the origin: x ∈ ±size[0]/2, z ∈ ±size[1]/2.
+    /// Regular grid in the y = 0 plane, centred on the origin: x ∈ ±`size[0]`/2, z ∈ ±`size[1]`/2.
     Grid {
         /// Extent along x and z, metres.
         size: [f64; 2],

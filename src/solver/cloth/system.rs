@@ -10,7 +10,7 @@
 //! the energy these steps dissipate (it is what [`ClothSystem::energy`] reports).
 //!
 //! Each spring contributes `G = h k_d I + h² (a x̂x̂ᵀ + b I)` to the system matrix (`+G` on both
-//! diagonal blocks, `−G` off the diagonal), stored as `(x̂, h² a, h k_d + h² b)` ([`RankOne`]): a
+//! diagonal blocks, `−G` off the diagonal), stored as `(x̂, h² a, h k_d + h² b)` (`RankOne`): a
 //! product with the matrix is one pass over the springs, about 15 flops each. The pass that
 //! linearises the springs also accumulates the right side and the diagonal blocks, and the pass that
 //! measures the state after a step yields both the springs' energy and their strain growth.
