@@ -6,7 +6,7 @@ use faer::linalg::solvers::Solve;
 use faer::sparse::{SparseColMat, Triplet};
 use glam::{DMat3, DVec3};
 use shellwarp::collision::Shape;
-use shellwarp::linalg::filtered_pcg::{self, Stop};
+use shellwarp::linalg::filtered_pcg::{self, Operator, Stop};
 use shellwarp::scene::{self, Setup};
 use shellwarp::solver::Solver;
 use shellwarp::solver::cloth::{Cloth, Variant};

@@ -19,17 +19,32 @@
 
 use glam::{DMat3, DVec3};
 
+use super::padded::{Padded, PaddedMat3, pad, unpad};
+
 /// A linear operator `y = A x` on per-particle vectors (symmetric positive definite on the free
 /// subspace, for [`solve`]).
 pub trait Operator {
+    /// `y = A x` on padded vectors, which [`solve`] iterates with (mark the implementation
+    /// `#[inline(always)]` so that it is compiled into the solver's kernel).
+    fn apply_padded(&self, x: &[Padded], y: &mut [Padded]);
+
     /// `y = A x`.
-    fn apply(&self, x: &[DVec3], y: &mut [DVec3]);
+    fn apply(&self, x: &[DVec3], y: &mut [DVec3]) {
+        let mut out = vec![Padded::ZERO; y.len()];
+        self.apply_padded(&pad(x), &mut out);
+        unpad(&out, y);
+    }
 }
 
+/// A closure on 3-vectors is an operator (applied through copies: for tests and small systems).
 impl<F: Fn(&[DVec3], &mut [DVec3])> Operator for F {
-    #[inline(always)]
-    fn apply(&self, x: &[DVec3], y: &mut [DVec3]) {
-        self(x, y)
+    fn apply_padded(&self, x: &[Padded], y: &mut [Padded]) {
+        let x: Vec<DVec3> = x.iter().map(|&v| v.into()).collect();
+        let mut out = vec![DVec3::ZERO; y.len()];
+        self(&x, &mut out);
+        for (y, o) in y.iter_mut().zip(out) {
+            *y = o.into();
+        }
     }
 }
 
@@ -64,16 +79,24 @@ impl Default for PcgReport {
     }
 }
 
+/// The constraints' filters: particle and matrix.
+type Filters = Vec<(usize, PaddedMat3)>;
+
 #[inline(always)]
-fn filter(constraints: &[Constraint], x: &mut [DVec3]) {
-    for c in constraints {
-        x[c.particle] = c.filter * x[c.particle];
+fn filter(filters: &Filters, x: &mut [Padded]) {
+    for (i, s) in filters {
+        x[*i] = s.times(x[*i]);
     }
 }
 
 #[inline(always)]
-fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
-    a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
+fn dot(a: &[Padded], b: &[Padded]) -> f64 {
+    // A plain loop: an iterator's `sum` is a separate function, not inlined into the kernel.
+    let mut sum = 0.0;
+    for (a, b) in a.iter().zip(b) {
+        sum += a.dot(*b);
+    }
+    sum
 }
 
 /// When to stop: `δ ≤ tolerance² · max(δ₀, floor)`, or after `max_iterations`.
@@ -97,10 +120,10 @@ pub struct Stop {
 /// residual, so it costs no extra product with `A`).
 ///
 /// The iteration is compiled for the best instruction set of this CPU ([`super::isa`]), with the
-/// operator inlined into it if its [`Operator::apply`] is `#[inline(always)]`.
+/// operator inlined into it if its [`Operator::apply_padded`] is `#[inline(always)]`.
 pub fn solve<A: Operator>(
     a: &A,
-    p_inv: &[DMat3],
+    p_inv: &[PaddedMat3],
     constraints: &[Constraint],
     b: &[DVec3],
     dv: &mut [DVec3],
@@ -113,7 +136,7 @@ pub fn solve<A: Operator>(
 /// The arguments of [`solve`], run as a [`super::isa::Kernel`].
 struct Iterate<'a, A> {
     a: &'a A,
-    p_inv: &'a [DMat3],
+    p_inv: &'a [PaddedMat3],
     constraints: &'a [Constraint],
     b: &'a [DVec3],
     dv: &'a mut [DVec3],
@@ -126,59 +149,72 @@ impl<A: Operator> super::isa::Kernel for Iterate<'_, A> {
 
     #[inline(always)]
     fn run(self) -> PcgReport {
-        let Self { a, p_inv, constraints, b, dv, stop, residual } = self;
+        let Self { a, p_inv, constraints, b, dv: dv_out, stop, residual: residual_out } = self;
         let n = b.len();
-        let mut z = vec![DVec3::ZERO; n];
+        let b = pad(b);
+        let mut dv = pad(dv_out);
+        let mut z = vec![Padded::ZERO; n];
         for c in constraints {
-            z[c.particle] = c.z;
-            dv[c.particle] = c.filter * dv[c.particle] + (c.z - c.filter * c.z);
+            z[c.particle] = c.z.into();
+            let start = c.filter * DVec3::from(dv[c.particle]) + (c.z - c.filter * c.z);
+            dv[c.particle] = start.into();
         }
-        let mut scratch = vec![DVec3::ZERO; n];
-        a.apply(&z, &mut scratch);
-        let mut b_hat: Vec<DVec3> = b.iter().zip(&scratch).map(|(b, az)| *b - *az).collect();
-        filter(constraints, &mut b_hat);
-        let delta0: f64 = b_hat.iter().zip(p_inv).map(|(r, p)| r.dot(*p * *r)).sum();
+        let filters: Filters = constraints.iter().map(|c| (c.particle, c.filter.into())).collect();
+        let mut scratch = vec![Padded::ZERO; n];
+        a.apply_padded(&z, &mut scratch);
+        let mut b_hat: Vec<Padded> = b.iter().zip(&scratch).map(|(b, az)| *b - *az).collect();
+        filter(&filters, &mut b_hat);
+        let mut delta0 = 0.0;
+        for (r, p) in b_hat.iter().zip(p_inv) {
+            delta0 += r.dot(p.times(*r));
+        }
         if delta0 <= 0.0 {
-            dv.copy_from_slice(&z);
-            residual.iter_mut().zip(b).zip(&scratch).for_each(|((r, b), az)| *r = *b - *az);
+            unpad(&z, dv_out);
+            let residual: Vec<Padded> = b.iter().zip(&scratch).map(|(b, az)| *b - *az).collect();
+            unpad(&residual, residual_out);
             return PcgReport::default();
         }
-        a.apply(dv, &mut scratch);
-        residual.iter_mut().zip(b).zip(&scratch).for_each(|((r, b), a)| *r = *b - *a);
-        let mut r = residual.to_vec();
-        filter(constraints, &mut r);
-        let mut c: Vec<DVec3> = r.iter().zip(p_inv).map(|(r, p)| *p * *r).collect();
-        filter(constraints, &mut c);
+        a.apply_padded(&dv, &mut scratch);
+        let mut residual: Vec<Padded> = b.iter().zip(&scratch).map(|(b, a)| *b - *a).collect();
+        let mut r = residual.clone();
+        filter(&filters, &mut r);
+        let mut c: Vec<Padded> = r.iter().zip(p_inv).map(|(r, p)| p.times(*r)).collect();
+        filter(&filters, &mut c);
         let mut delta = dot(&r, &c);
         let mut q = scratch;
         let mut iterations = 0;
         let target = stop.tolerance * stop.tolerance * delta0.max(stop.floor);
         while delta > target && iterations < stop.max_iterations {
-            a.apply(&c, &mut q);
+            a.apply_padded(&c, &mut q);
             // c = S c and S is an orthogonal projection, so cᵀ(S q) = cᵀq.
             let cq = dot(&c, &q);
             if cq <= 0.0 || !cq.is_finite() {
                 break; // not positive definite on the free subspace (or broken input): stop where we are
             }
             let alpha = delta / cq;
-            residual.iter_mut().zip(&q).for_each(|(r, q)| *r -= *q * alpha);
-            filter(constraints, &mut q);
+            for (r, q) in residual.iter_mut().zip(&q) {
+                *r -= *q * alpha;
+            }
+            filter(&filters, &mut q);
             let mut next = 0.0;
             for i in 0..n {
                 dv[i] += c[i] * alpha;
-                r[i] -= q[i] * alpha;
+                let ri = r[i] - q[i] * alpha;
                 // s = P⁻¹ r, kept in q (no longer needed this iteration).
-                q[i] = p_inv[i] * r[i];
-                next += r[i].dot(q[i]);
+                let s = p_inv[i].times(ri);
+                (r[i], q[i]) = (ri, s);
+                next += ri.dot(s);
             }
             let beta = next / delta;
             for i in 0..n {
                 c[i] = q[i] + c[i] * beta;
             }
-            filter(constraints, &mut c);
+            filter(&filters, &mut c);
             delta = next;
             iterations += 1;
         }
+        unpad(&dv, dv_out);
+        unpad(&residual, residual_out);
         let delta = delta.max(0.0);
         PcgReport {
             iterations,
@@ -218,10 +254,10 @@ mod tests {
             Constraint { particle: 4, filter: DMat3::IDENTITY - outer(p, p), z: p * 0.7 },
             Constraint { particle: 7, filter: DMat3::IDENTITY - outer(p, p) - outer(q, q), z: p * -0.2 + q * 0.4 },
         ];
-        let p_inv: Vec<DMat3> = (0..n)
+        let p_inv: Vec<PaddedMat3> = (0..n)
             .map(|i| {
                 let block = DMat3::from_cols_array(&std::array::from_fn(|k| a[(3 * i + k % 3, 3 * i + k / 3)]));
-                block.inverse()
+                block.inverse().into()
             })
             .collect();
         let apply = |x: &[DVec3], y: &mut [DVec3]| {

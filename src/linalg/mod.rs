@@ -14,6 +14,7 @@ pub mod filtered_pcg;
 pub mod isa;
 pub mod lanczos;
 pub mod ordering;
+pub mod padded;
 
 pub use assembly::BlockAssembler;
 pub use cholesky::SparseCholesky;

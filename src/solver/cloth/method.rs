@@ -10,6 +10,7 @@ use super::graph::SpringGraph;
 use super::system::{ClothSystem, SpringParams, SpringState};
 use crate::collision::Body;
 use crate::linalg::filtered_pcg::{self, Constraint, PcgReport, Stop};
+use crate::linalg::padded::PaddedMat3;
 use crate::scene::{MeshSource, Setup};
 use crate::solver::registry::Method;
 use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Solver, SolverError, StepStats, check_finite};
@@ -96,13 +97,13 @@ const PARAMS: [ParamSpec; 12] = [
     },
 ];
 
-/// One step's linear system `A Δv = b` (with `A` applied by [`ClothSystem::apply`]).
+/// One step's linear system `A Δv = b` (with `A` applied by the [`ClothSystem`]'s [`Operator`](filtered_pcg::Operator) product).
 #[derive(Debug, Clone, Default)]
 pub struct LinearStep {
     /// The right side `b`.
     pub rhs: Vec<DVec3>,
     /// Block-Jacobi inverse of `A`.
-    pub preconditioner: Vec<glam::DMat3>,
+    pub preconditioner: Vec<PaddedMat3>,
     /// Anchors, drags and contacts.
     pub constraints: Vec<Constraint>,
     /// The PCG's [`Stop::floor`]: `Σ m̃ (0.1 m/s)²`, so that near rest the velocity error is bounded
@@ -254,7 +255,7 @@ impl Cloth {
     fn linearise_into(&mut self, h: f64, step: &mut LinearStep) {
         let n = self.x.len();
         step.rhs.resize(n, DVec3::ZERO);
-        step.preconditioner.resize(n, glam::DMat3::ZERO);
+        step.preconditioner.resize(n, PaddedMat3::default());
         step.constraints.clear();
         self.system.linearise((&self.x, &self.v), self.gravity, h, &mut step.rhs, &mut step.preconditioner);
         self.hold(h, &mut step.constraints);

@@ -21,6 +21,7 @@ use super::graph::SpringGraph;
 use crate::energy::springs::{self, Buckling};
 use crate::linalg::filtered_pcg::Operator;
 use crate::linalg::isa;
+use crate::linalg::padded::{Padded, PaddedMat3};
 
 /// Spring stiffnesses and damping, per spring.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -38,22 +39,22 @@ pub struct SpringParams {
 /// A spring's symmetric 3 × 3 block `a x̂x̂ᵀ + c I`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 struct RankOne {
-    dir: DVec3,
+    dir: Padded,
     a: f64,
     c: f64,
 }
 
 impl RankOne {
     #[inline(always)]
-    fn times(&self, d: DVec3) -> DVec3 {
+    fn times(&self, d: Padded) -> Padded {
         d * self.c + self.dir * (self.a * self.dir.dot(d))
     }
 
     #[inline(always)]
-    fn matrix(&self) -> DMat3 {
+    fn matrix(&self) -> PaddedMat3 {
         let (x, a, c) = (self.dir, self.a, self.c);
-        let (ax, ay, az) = (x * (a * x.x), x * (a * x.y), x * (a * x.z));
-        DMat3::from_cols(ax + DVec3::X * c, ay + DVec3::Y * c, az + DVec3::Z * c)
+        let [e0, e1, e2] = [DVec3::X, DVec3::Y, DVec3::Z].map(Padded::from);
+        PaddedMat3::from_cols(x * (a * x.lane(0)) + e0 * c, x * (a * x.lane(1)) + e1 * c, x * (a * x.lane(2)) + e2 * c)
     }
 }
 
@@ -141,7 +142,7 @@ impl ClothSystem {
     }
 
     /// Linearise the forces at `(x, v)` with gravity `g` (scaled by `1/w`) for a step of `h`: the
-    /// step's matrix `A` (kept for [`Self::apply`]), its right side `rhs = h f̃₀ − h² K v₀` and
+    /// step's matrix `A` (kept for its [`Operator`] product), its right side `rhs = h f̃₀ − h² K v₀` and
     /// `preconditioner`, the inverses of `A`'s 3 × 3 diagonal blocks (block Jacobi).
     pub fn linearise(
         &mut self,
@@ -149,14 +150,14 @@ impl ClothSystem {
         g: DVec3,
         h: f64,
         rhs: &mut [DVec3],
-        preconditioner: &mut [DMat3],
+        preconditioner: &mut [PaddedMat3],
     ) {
         struct Linearise<'a> {
             system: &'a mut ClothSystem,
             state: (&'a [DVec3], &'a [DVec3]),
             g: DVec3,
             h: f64,
-            out: (&'a mut [DVec3], &'a mut [DMat3]),
+            out: (&'a mut [DVec3], &'a mut [PaddedMat3]),
         }
         impl isa::Kernel for Linearise<'_> {
             type Output = ();
@@ -175,11 +176,11 @@ impl ClothSystem {
         (x, v): (&[DVec3], &[DVec3]),
         g: DVec3,
         h: f64,
-        (rhs, diagonal): (&mut [DVec3], &mut [DMat3]),
+        (rhs, diagonal): (&mut [DVec3], &mut [PaddedMat3]),
     ) {
         for ((b, d), m) in rhs.iter_mut().zip(diagonal.iter_mut()).zip(&self.scaled_mass) {
             *b = g * (h * m);
-            *d = DMat3::from_diagonal(DVec3::splat(*m));
+            *d = DMat3::from_diagonal(DVec3::splat(*m)).into();
         }
         let (k_s, k_d, h2) = (self.params.k_s, self.params.k_d, h * h);
         let stretch = self.graph.stretch;
@@ -189,7 +190,7 @@ impl ClothSystem {
             for (k, &[i, j]) in pairs.iter().enumerate() {
                 let (s, r, inverse) = (chunk * LANES + k, r[k], inverse[k]);
                 self.length[s] = r;
-                let dir = (x[j] - x[i]) * inverse;
+                let dir = Padded::from(x[j] - x[i]) * inverse;
                 let (tension, stiffness) = if s < stretch {
                     // Stretched: the exact Jacobian k_s x̂x̂ᵀ + (T/r)(I − x̂x̂ᵀ). Slack (T = 0): still k_s x̂x̂ᵀ
                     // along the spring — see the module doc.
@@ -201,8 +202,8 @@ impl ClothSystem {
                     (tension, RankOne { dir, a: s, c: 0.0 })
                 };
                 // Force on i (spring and damping), and the right side's −h² K (vᵢ − vⱼ).
-                let dv = v[i] - v[j];
-                let y = (dir * tension - dv * k_d) * h - stiffness.times(dv) * h2;
+                let dv = Padded::from(v[i] - v[j]);
+                let y = DVec3::from((dir * tension - dv * k_d) * h - stiffness.times(dv) * h2);
                 rhs[i] += y;
                 rhs[j] -= y;
                 let step = RankOne { dir, a: h2 * stiffness.a, c: h2 * stiffness.c + h * k_d };
@@ -213,7 +214,7 @@ impl ClothSystem {
             }
         }
         for d in diagonal.iter_mut() {
-            *d = d.inverse();
+            *d = DMat3::from(*d).inverse().into();
         }
     }
 
@@ -261,10 +262,12 @@ impl ClothSystem {
     pub fn energy(&self, x: &[DVec3], v: &[DVec3], rest: &[DVec3], g: DVec3) -> f64 {
         self.measure(x).energy + self.particle_energy(x, v, rest, g)
     }
+}
 
+impl Operator for ClothSystem {
     /// `out = A v` with the step's matrix `A = M̃ + h D + h² K`.
     #[inline(always)]
-    pub fn apply(&self, v: &[DVec3], out: &mut [DVec3]) {
+    fn apply_padded(&self, v: &[Padded], out: &mut [Padded]) {
         for ((o, v), m) in out.iter_mut().zip(v).zip(&self.scaled_mass) {
             *o = *v * *m;
         }
@@ -273,13 +276,6 @@ impl ClothSystem {
             out[i] += y;
             out[j] -= y;
         }
-    }
-}
-
-impl Operator for ClothSystem {
-    #[inline(always)]
-    fn apply(&self, x: &[DVec3], y: &mut [DVec3]) {
-        ClothSystem::apply(self, x, y);
     }
 }
 
@@ -304,9 +300,9 @@ mod tests {
 
     /// `linearise` at `(x, v)` with no gravity and `h = 1`: the linearised system and its right side
     /// `f(x, v) − K v`, and the block-Jacobi preconditioner.
-    fn linearised(sys: &ClothSystem, x: &[DVec3], v: &[DVec3]) -> (ClothSystem, Vec<DVec3>, Vec<DMat3>) {
+    fn linearised(sys: &ClothSystem, x: &[DVec3], v: &[DVec3]) -> (ClothSystem, Vec<DVec3>, Vec<PaddedMat3>) {
         let (mut sys, n) = (sys.clone(), x.len());
-        let (mut rhs, mut preconditioner) = (vec![DVec3::ZERO; n], vec![DMat3::ZERO; n]);
+        let (mut rhs, mut preconditioner) = (vec![DVec3::ZERO; n], vec![PaddedMat3::default(); n]);
         sys.linearise((x, v), DVec3::ZERO, 1.0, &mut rhs, &mut preconditioner);
         (sys, rhs, preconditioner)
     }
@@ -371,8 +367,9 @@ mod tests {
                     a_unit[i]
                 };
                 let block = DMat3::from_cols(column(0), column(1), column(2));
-                let off = (preconditioner[i] * block - DMat3::IDENTITY).abs().to_cols_array();
-                assert!(off.iter().all(|d| *d < 1e-12), "particle {i}: P⁻¹ A_ii = {}", preconditioner[i] * block);
+                let product = DMat3::from(preconditioner[i]) * block;
+                let off = (product - DMat3::IDENTITY).abs().to_cols_array();
+                assert!(off.iter().all(|d| *d < 1e-12), "particle {i}: P⁻¹ A_ii = {product}");
             }
         }
     }
