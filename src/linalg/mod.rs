@@ -4,7 +4,7 @@
 //! assembly through precomputed value slots, DOF reduction for anchored vertices, and a sparse
 //! Cholesky wrapper (faer) that factorises the pattern symbolically once, and Baraff–Witkin's
 //! filtered PCG for constrained particle systems ([`filtered_pcg`]); hot loops compiled for the CPU's
-//! best instruction set ([`isa`]).
+//! best instruction set ([`isa`]) over per-particle vectors padded to four lanes ([`padded`]).
 
 mod assembly;
 mod cholesky;
