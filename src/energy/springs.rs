@@ -331,6 +331,38 @@ mod tests {
         }
     }
 
+    /// The energy is the work of the tension from the rest length, `E(r) = −∫_r^L T`, on every branch
+    /// (a wrong constant where the branches meet would pass the derivative checks but not this):
+    /// composite Simpson with the branch changes as nodes, so each panel is smooth.
+    #[test]
+    fn buckling_energy_is_the_work_of_its_tension() {
+        let l = 0.04;
+        for (k_b, c_b) in [(1e-6, 200.0), (1e-3, 600.0), (1e-3, 150.0), (0.0, 200.0)] {
+            let spring = Buckling::new(l, k_b, c_b);
+            let (t1, t2) = spring.buckling;
+            let simpson = |a: f64, b: f64| {
+                let n = 2000;
+                let h = (b - a) / n as f64;
+                let t = |k: usize| spring.tension_stiffness(a + k as f64 * h).0;
+                (t(0) + t(n) + (1..n).map(|k| if k % 2 == 1 { 4.0 } else { 2.0 } * t(k)).sum::<f64>()) * h / 3.0
+            };
+            for r in [0.005, 0.05, 0.3, 0.6, 0.9, 0.97, 0.999].map(|u| u * l) {
+                // Nodes: r, the branch changes between r and L (at r = L(1 − t)), and L.
+                let mut nodes: Vec<f64> = [t2, t1].iter().map(|t| l * (1.0 - t)).filter(|n| *n > r && *n < l).collect();
+                nodes.insert(0, r);
+                nodes.push(l);
+                let work: f64 = nodes.windows(2).map(|w| simpson(w[0], w[1])).sum();
+                let e = spring.energy(r);
+                assert!(
+                    (e + work).abs() < 1e-9 * e.abs().max(1e-12),
+                    "k_b {k_b}, c_b {c_b}, r/L {}: {e} vs {}",
+                    r / l,
+                    -work
+                );
+            }
+        }
+    }
+
     /// Force and stiffness against central differences of the energy, on both branches and at `c_b`
     /// values giving no, one or two branch changes.
     #[test]

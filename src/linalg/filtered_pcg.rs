@@ -232,6 +232,40 @@ mod tests {
     use super::*;
     use crate::energy::hinge::outer;
 
+    /// A right side that the prescribed changes already satisfy (`b = A z`): nothing to iterate, whatever
+    /// the warm start; `Δv = z` and the residual is `b − A z = 0`.
+    #[test]
+    fn a_system_its_constraints_solve_returns_them() {
+        let n = 5;
+        // Coupled neighbours: y_i = 3 x_i − (x_{i−1} + x_{i+1}) / 2.
+        let apply = |x: &[DVec3], y: &mut [DVec3]| {
+            for i in 0..x.len() {
+                let left = if i > 0 { x[i - 1] } else { DVec3::ZERO };
+                let right = x.get(i + 1).copied().unwrap_or_default();
+                y[i] = x[i] * 3.0 - (left + right) * 0.5;
+            }
+        };
+        let p = DVec3::new(0.0, 0.6, 0.8);
+        let constraints = [
+            Constraint { particle: 1, filter: DMat3::ZERO, z: DVec3::new(0.3, -0.2, 0.1) },
+            Constraint { particle: 3, filter: DMat3::IDENTITY - outer(p, p), z: p * 0.7 },
+        ];
+        let mut z = vec![DVec3::ZERO; n];
+        for c in &constraints {
+            z[c.particle] = c.z;
+        }
+        let mut b = vec![DVec3::ZERO; n];
+        apply(&z, &mut b);
+        let p_inv = vec![PaddedMat3::from(DMat3::IDENTITY / 3.0); n];
+        let mut dv: Vec<DVec3> = (0..n).map(|i| DVec3::splat(0.1 * i as f64 + 0.05)).collect();
+        let mut residual = vec![DVec3::ONE; n];
+        let stop = Stop { tolerance: 1e-10, floor: 0.0, max_iterations: 50 };
+        let report = solve(&apply, &p_inv, &constraints, &b, &mut dv, stop, &mut residual);
+        assert_eq!(report, PcgReport::default());
+        assert_eq!(dv, z);
+        assert!(residual.iter().all(|r| *r == DVec3::ZERO), "{residual:?}");
+    }
+
     /// A random SPD block matrix, a few constraints of each kind; the filtered solution is checked
     /// against a dense solve of the reduced system `Tᵀ A T y = Tᵀ (b − A z)`, `Δv = z + T y`.
     #[test]

@@ -3,7 +3,7 @@
 //! A [`DVec3`] takes two loads and two stores (16 + 8 bytes); a [`Padded`] is 32 bytes, 32-byte
 //! aligned, so a kernel compiled for AVX2 ([`super::isa`]) moves it with one instruction and does its
 //! arithmetic on all lanes at once. The fourth lane is zero in every vector built by [`Padded::from`],
-//! and the operations keep it zero (sums, differences and scalings of zeros), so dot products over
+//! and the operations keep it zero (sums, differences and finite scalings of zeros), so dot products over
 //! four lanes are the 3-vector ones.
 
 use glam::{DMat3, DVec3};

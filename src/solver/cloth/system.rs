@@ -7,7 +7,8 @@
 //! spring forces `f̃ = Σⱼ f_ij + m̃ g`, which is symmetric positive definite with Choi & Ko's kept
 //! Jacobians (stretch: exact; buckling: longitudinal only; damping `k_d I`). The same dynamics are
 //! the motion of particles of mass `m̃ᵢ` in the unweighted springs, so `½ vᵀM̃v + E_springs − m̃ g·u` is
-//! the energy these steps dissipate (it is what [`ClothSystem::energy`] reports).
+//! the energy these steps dissipate ([`ClothSystem::measure`] reports the springs' part,
+//! [`ClothSystem::particle_energy`] the rest).
 //!
 //! Each spring contributes `G = h k_d I + h² (a x̂x̂ᵀ + b I)` to the system matrix (`+G` on both
 //! diagonal blocks, `−G` off the diagonal), stored as `(x̂, h² a, h k_d + h² b)` (`RankOne`): a
@@ -198,8 +199,8 @@ impl ClothSystem {
                     (tension, RankOne { dir, a: k_s - tension * inverse, c: tension * inverse })
                 } else {
                     // Longitudinal term only (Choi & Ko), S ≥ 0.
-                    let (tension, s) = self.buckling[s - stretch].tension_stiffness(r);
-                    (tension, RankOne { dir, a: s, c: 0.0 })
+                    let (tension, slope) = self.buckling[s - stretch].tension_stiffness(r);
+                    (tension, RankOne { dir, a: slope, c: 0.0 })
                 };
                 // Force on i (spring and damping), and the right side's −h² K (vᵢ − vⱼ).
                 let dv = Padded::from(v[i] - v[j]);
@@ -257,11 +258,6 @@ impl ClothSystem {
         }
         e
     }
-
-    /// Springs' energy at `x` plus [`Self::particle_energy`], J.
-    pub fn energy(&self, x: &[DVec3], v: &[DVec3], rest: &[DVec3], g: DVec3) -> f64 {
-        self.measure(x).energy + self.particle_energy(x, v, rest, g)
-    }
 }
 
 impl Operator for ClothSystem {
@@ -298,13 +294,64 @@ mod tests {
         (ClothSystem::new(graph, params), x, v)
     }
 
-    /// `linearise` at `(x, v)` with no gravity and `h = 1`: the linearised system and its right side
-    /// `f(x, v) − K v`, and the block-Jacobi preconditioner.
-    fn linearised(sys: &ClothSystem, x: &[DVec3], v: &[DVec3]) -> (ClothSystem, Vec<DVec3>, Vec<PaddedMat3>) {
+    /// `linearise` at `(x, v)` with gravity `g` and step `h`: the linearised system, its right side
+    /// and the block-Jacobi preconditioner.
+    fn linearised_with(
+        sys: &ClothSystem,
+        (x, v): (&[DVec3], &[DVec3]),
+        g: DVec3,
+        h: f64,
+    ) -> (ClothSystem, Vec<DVec3>, Vec<PaddedMat3>) {
         let (mut sys, n) = (sys.clone(), x.len());
         let (mut rhs, mut preconditioner) = (vec![DVec3::ZERO; n], vec![PaddedMat3::default(); n]);
-        sys.linearise((x, v), DVec3::ZERO, 1.0, &mut rhs, &mut preconditioner);
+        sys.linearise((x, v), g, h, &mut rhs, &mut preconditioner);
         (sys, rhs, preconditioner)
+    }
+
+    /// [`linearised_with`] without gravity and with `h = 1`: the right side is `f(x, v) − K v`.
+    fn linearised(sys: &ClothSystem, x: &[DVec3], v: &[DVec3]) -> (ClothSystem, Vec<DVec3>, Vec<PaddedMat3>) {
+        linearised_with(sys, (x, v), DVec3::ZERO, 1.0)
+    }
+
+    /// `(A − M̃) u` for the linearised system `sys`.
+    fn spring_part(sys: &ClothSystem, u: &[DVec3]) -> Vec<DVec3> {
+        let mut a_u = vec![DVec3::ZERO; u.len()];
+        sys.apply(u, &mut a_u);
+        a_u.iter().zip(u).zip(sys.scaled_masses()).map(|((a, u), m)| *a - *u * *m).collect()
+    }
+
+    fn largest(v: &[DVec3]) -> f64 {
+        v.iter().map(|b| b.abs().max_element()).fold(0.0, f64::max)
+    }
+
+    /// The step of `h` scales the linearisation at `h = 1` as backward Euler says: the right side is
+    /// `h f(x, 0) + h m̃ g` at rest velocities and changes by `−(A − M̃) v` with the velocities, where
+    /// `A − M̃ = h D + h² K` (without damping: `h²` times the matrix at `h = 1`).
+    #[test]
+    fn the_step_scales_with_h_and_carries_gravity() {
+        let (sys, x, v) = system();
+        let (h, g) = (0.01, DVec3::new(0.5, -9.81, 0.0));
+        let still = vec![DVec3::ZERO; x.len()];
+        let (_, force, _) = linearised(&sys, &x, &still);
+        let (_, at_rest, _) = linearised_with(&sys, (&x, &still), g, h);
+        let (lin, moving, _) = linearised_with(&sys, (&x, &v), g, h);
+        let scale = largest(&at_rest).max(largest(&moving));
+        let damping_and_stiffness = spring_part(&lin, &v);
+        for (i, m) in sys.scaled_masses().iter().enumerate() {
+            let want = force[i] * h + g * (h * m);
+            assert!((at_rest[i] - want).abs().max_element() < 1e-12 * scale, "particle {i}: {} vs {want}", at_rest[i]);
+            let change = moving[i] - at_rest[i];
+            assert!((change + damping_and_stiffness[i]).abs().max_element() < 1e-12 * scale, "particle {i}: {change}");
+        }
+        let mut undamped = sys.clone();
+        undamped.set_params(SpringParams { k_d: 0.0, ..sys.params() });
+        let (one, _, _) = linearised(&undamped, &x, &v);
+        let (small, _, _) = linearised_with(&undamped, (&x, &v), g, h);
+        let (k_h, k_1) = (spring_part(&small, &v), spring_part(&one, &v));
+        let scale = largest(&k_1) * h * h;
+        for (i, (a, b)) in k_h.iter().zip(&k_1).enumerate() {
+            assert!((*a - *b * (h * h)).abs().max_element() < 1e-12 * scale, "particle {i}: {a} vs {}", *b * h * h);
+        }
     }
 
     /// With every stretch spring taut (where the matrix keeps their exact Jacobian) and buckling off,
@@ -388,9 +435,9 @@ mod tests {
                 let e = 1e-7;
                 let mut p = x.clone();
                 p[i][a] += e;
-                let ep = probe.energy(&p, &still, &x, DVec3::ZERO);
+                let ep = probe.measure(&p).energy;
                 p[i][a] -= 2.0 * e;
-                let em = probe.energy(&p, &still, &x, DVec3::ZERO);
+                let em = probe.measure(&p).energy;
                 let fd = -(ep - em) / (2.0 * e);
                 assert!((fd - f[i][a]).abs() < 1e-6 * scale, "particle {i}[{a}]: {} vs fd {fd}", f[i][a]);
             }
