@@ -39,9 +39,9 @@ pub trait Operator {
 /// A closure on 3-vectors is an operator (applied through copies: for tests and small systems).
 impl<F: Fn(&[DVec3], &mut [DVec3])> Operator for F {
     fn apply_padded(&self, x: &[Padded], y: &mut [Padded]) {
-        let x: Vec<DVec3> = x.iter().map(|&v| v.into()).collect();
-        let mut out = vec![DVec3::ZERO; y.len()];
-        self(&x, &mut out);
+        let (mut x3, mut out) = (vec![DVec3::ZERO; x.len()], vec![DVec3::ZERO; y.len()]);
+        unpad(x, &mut x3);
+        self(&x3, &mut out);
         for (y, o) in y.iter_mut().zip(out) {
             *y = o.into();
         }
@@ -87,6 +87,12 @@ fn filter(filters: &Filters, x: &mut [Padded]) {
     for (i, s) in filters {
         x[*i] = s.times(x[*i]);
     }
+}
+
+/// `a − b`, per particle.
+#[inline(always)]
+fn difference(a: &[Padded], b: &[Padded]) -> Vec<Padded> {
+    a.iter().zip(b).map(|(a, b)| *a - *b).collect()
 }
 
 #[inline(always)]
@@ -162,7 +168,7 @@ impl<A: Operator> super::isa::Kernel for Iterate<'_, A> {
         let filters: Filters = constraints.iter().map(|c| (c.particle, c.filter.into())).collect();
         let mut scratch = vec![Padded::ZERO; n];
         a.apply_padded(&z, &mut scratch);
-        let mut b_hat: Vec<Padded> = b.iter().zip(&scratch).map(|(b, az)| *b - *az).collect();
+        let mut b_hat = difference(&b, &scratch);
         filter(&filters, &mut b_hat);
         let mut delta0 = 0.0;
         for (r, p) in b_hat.iter().zip(p_inv) {
@@ -170,12 +176,11 @@ impl<A: Operator> super::isa::Kernel for Iterate<'_, A> {
         }
         if delta0 <= 0.0 {
             unpad(&z, dv_out);
-            let residual: Vec<Padded> = b.iter().zip(&scratch).map(|(b, az)| *b - *az).collect();
-            unpad(&residual, residual_out);
+            unpad(&difference(&b, &scratch), residual_out);
             return PcgReport::default();
         }
         a.apply_padded(&dv, &mut scratch);
-        let mut residual: Vec<Padded> = b.iter().zip(&scratch).map(|(b, a)| *b - *a).collect();
+        let mut residual = difference(&b, &scratch);
         let mut r = residual.clone();
         filter(&filters, &mut r);
         let mut c: Vec<Padded> = r.iter().zip(p_inv).map(|(r, p)| p.times(*r)).collect();

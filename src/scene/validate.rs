@@ -98,7 +98,7 @@ impl Scene {
         vec3("placement.translate", self.placement.translate)?;
         let m = &self.material;
         positive("material.density", m.density)?;
-        let stiffnesses = [
+        let coefficients = [
             ("k_area", m.k_area),
             ("k_length", m.k_length),
             ("k_bend", m.k_bend),
@@ -109,7 +109,7 @@ impl Scene {
             ("mu_s", m.mu_s),
             ("mu_k", m.mu_k),
         ];
-        for (key, v) in stiffnesses {
+        for (key, v) in coefficients {
             non_negative(&format!("material.{key}"), v)?;
         }
         for (i, a) in self.anchors.iter().enumerate() {

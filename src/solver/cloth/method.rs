@@ -97,7 +97,8 @@ const PARAMS: [ParamSpec; 12] = [
     },
 ];
 
-/// One step's linear system `A Δv = b` (with `A` applied by the [`ClothSystem`]'s [`Operator`](filtered_pcg::Operator) product).
+/// One step's linear system `A Δv = b` (with `A` applied by the [`ClothSystem`]'s
+/// [`Operator`](filtered_pcg::Operator) product).
 #[derive(Debug, Clone, Default)]
 pub struct LinearStep {
     /// The right side `b`.
