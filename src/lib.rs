@@ -7,6 +7,7 @@
 pub mod app;
 pub mod collision;
 pub mod energy;
+pub mod eval;
 pub mod linalg;
 pub mod mesh;
 pub mod render;

@@ -1,5 +1,6 @@
 //! Subcommands. Each parses nothing itself: clap hands it typed arguments.
 
+mod eval;
 mod modes;
 mod render;
 mod scenes;
@@ -31,6 +32,8 @@ enum Command {
     Render(render::RenderArgs),
     /// Run a scene headless and report timing, energy and the final bounding box.
     Sim(sim::SimArgs),
+    /// Experiments: speed against accuracy, stability maps, the papers' figures; CSV, charts, summary.
+    Eval(eval::EvalArgs),
 }
 
 /// Which scene, with which method and overrides: shared by every subcommand that loads a scene.
@@ -62,7 +65,7 @@ impl SceneArgs {
 impl Cli {
     /// Whether the command opens the GPU (the viewer and `render`).
     pub fn uses_gpu(&self) -> bool {
-        matches!(self.command, None | Some(Command::View(_) | Command::Render(_)))
+        matches!(self.command, None | Some(Command::View(_) | Command::Render(_) | Command::Eval(_)))
     }
 }
 
@@ -91,5 +94,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Modes(args) => modes::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Sim(args) => sim::run(&args),
+        Command::Eval(args) => eval::run(&args),
     }
 }

@@ -1,0 +1,514 @@
+//! Charts as PNG, drawn by plotters with the font egui ships (no system fonts): line charts,
+//! cost–error scatter plots with their Pareto front, and categorical maps. One colour per method,
+//! the same in every chart ([`method_color`]).
+
+use std::ops::Range;
+use std::path::Path;
+use std::sync::Once;
+
+use image::{RgbImage, RgbaImage};
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::prelude::*;
+
+use super::EvalError;
+
+/// Size of every chart, pixels.
+pub const SIZE: (u32, u32) = (960, 600);
+
+/// The font family name the charts use (registered from egui's bundled Ubuntu Light).
+const FONT: &str = "sans-serif";
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The bytes are a valid TrueType font compiled into egui; failure would be a build defect,
+        // and charts then show no text rather than failing.
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, epaint_default_fonts::UBUNTU_LIGHT);
+    });
+}
+
+/// The colour of a method, the same in every chart. Known methods have fixed colours; any other
+/// name (a method added later) gets one derived from its name.
+pub fn method_color(method: &str) -> RGBColor {
+    match method {
+        "lma" => RGBColor(214, 39, 40),
+        "mwts" => RGBColor(31, 119, 180),
+        "mwts-rs" => RGBColor(23, 190, 207),
+        "ds-static" => RGBColor(0, 0, 0),
+        "ds" => RGBColor(127, 127, 127),
+        "ds-implicit" => RGBColor(44, 160, 44),
+        "cloth" => RGBColor(148, 103, 189),
+        "cloth-quad" => RGBColor(140, 86, 75),
+        "pbd" => RGBColor(255, 127, 14),
+        "xpbd" => RGBColor(227, 119, 194),
+        "rigid" => RGBColor(188, 189, 34),
+        other => {
+            let h = other.bytes().fold(2166136261u32, |h, b| (h ^ u32::from(b)).wrapping_mul(16777619));
+            RGBColor((h & 0xff) as u8 / 2 + 64, ((h >> 8) & 0xff) as u8 / 2 + 64, ((h >> 16) & 0xff) as u8 / 2 + 64)
+        }
+    }
+}
+
+/// An axis: label (with unit) and whether it is logarithmic.
+#[derive(Debug, Clone)]
+pub struct Axis {
+    /// Label, including the unit, e.g. `"gravity (m/s²)"`.
+    pub label: String,
+    /// Logarithmic scale (for data spanning decades).
+    pub log: bool,
+}
+
+impl Axis {
+    /// A linear axis.
+    pub fn linear(label: impl Into<String>) -> Self {
+        Self { label: label.into(), log: false }
+    }
+
+    /// A logarithmic axis.
+    pub fn log(label: impl Into<String>) -> Self {
+        Self { label: label.into(), log: true }
+    }
+}
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Style {
+    /// Markers joined by a line.
+    Line,
+    /// A dashed line with markers (a second quantity of the same method, or a reference).
+    Dashed,
+    /// Markers only.
+    Points,
+}
+
+/// One named series of points.
+#[derive(Debug, Clone)]
+pub struct Series {
+    /// Legend entry.
+    pub label: String,
+    /// Colour (usually [`method_color`]).
+    pub color: RGBColor,
+    /// Drawing style.
+    pub style: Style,
+    /// The points (non-finite ones, and non-positive ones on log axes, are skipped).
+    pub points: Vec<(f64, f64)>,
+}
+
+/// A chart of series on two axes.
+#[derive(Debug, Clone)]
+pub struct Plot {
+    /// Title drawn above the chart.
+    pub title: String,
+    /// Horizontal axis.
+    pub x: Axis,
+    /// Vertical axis.
+    pub y: Axis,
+    /// The series.
+    pub series: Vec<Series>,
+}
+
+/// The range of `values` padded for drawing (log axes by a factor, linear by 5% of the span).
+fn extent(values: impl Iterator<Item = f64>, log: bool) -> Range<f64> {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite() && (!log || *v > 0.0))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    if !lo.is_finite() {
+        return if log { 0.1..10.0 } else { 0.0..1.0 };
+    }
+    if log {
+        let (lo, hi) = if hi / lo < 1.5 { (lo / 1.5, hi * 1.5) } else { (lo, hi) };
+        lo / 1.25..hi * 1.25
+    } else {
+        let pad = if hi > lo { 0.05 * (hi - lo) } else { 0.5 * lo.abs().max(1.0) };
+        lo - pad..hi + pad
+    }
+}
+
+impl Plot {
+    /// Draw to a PNG of [`SIZE`].
+    pub fn save(&self, path: &Path) -> Result<(), EvalError> {
+        let points = || self.series.iter().flat_map(|s| s.points.iter().copied());
+        let xr = extent(points().map(|p| p.0), self.x.log);
+        let yr = extent(points().map(|p| p.1), self.y.log);
+        draw_png(path, None, |root| match (self.x.log, self.y.log) {
+            (false, false) => self.draw(root, xr, yr),
+            (true, false) => self.draw(root, xr.log_scale(), yr),
+            (false, true) => self.draw(root, xr, yr.log_scale()),
+            (true, true) => self.draw(root, xr.log_scale(), yr.log_scale()),
+        })
+    }
+
+    fn draw<X, Y>(&self, root: &Root, x: X, y: Y) -> Result<(), String>
+    where
+        X: AsRangedCoord<Value = f64>,
+        Y: AsRangedCoord<Value = f64>,
+        X::CoordDescType: ValueFormatter<f64>,
+        Y::CoordDescType: ValueFormatter<f64>,
+    {
+        let e = |e: &dyn std::fmt::Display| e.to_string();
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, (FONT, 24))
+            .margin(16)
+            .x_label_area_size(56)
+            .y_label_area_size(86)
+            .build_cartesian_2d(x, y)
+            .map_err(|x| e(&x))?;
+        chart
+            .configure_mesh()
+            .x_desc(&self.x.label)
+            .y_desc(&self.y.label)
+            .label_style((FONT, 15))
+            .axis_desc_style((FONT, 18))
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(|x| e(&x))?;
+        let (x_log, y_log) = (self.x.log, self.y.log);
+        let keep =
+            move |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite() && (!x_log || p.0 > 0.0) && (!y_log || p.1 > 0.0);
+        for s in &self.series {
+            let pts: Vec<(f64, f64)> = s.points.iter().filter(keep).copied().collect();
+            let color = s.color;
+            let line = color.stroke_width(2);
+            match s.style {
+                Style::Line => {
+                    chart.draw_series(LineSeries::new(pts.clone(), line)).map_err(|x| e(&x))?;
+                }
+                Style::Dashed => {
+                    chart.draw_series(DashedLineSeries::new(pts.clone(), 8, 5, line)).map_err(|x| e(&x))?;
+                }
+                Style::Points => {}
+            }
+            chart
+                .draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled())))
+                .map_err(|x| e(&x))?
+                .label(&s.label)
+                .legend(move |(x, y)| {
+                    EmptyElement::at((x, y))
+                        + PathElement::new(vec![(-8, 0), (8, 0)], color.stroke_width(2))
+                        + Circle::new((0, 0), 4, color.filled())
+                });
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .label_font((FONT, 15))
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(160, 160, 160))
+            .draw()
+            .map_err(|x| e(&x))?;
+        Ok(())
+    }
+}
+
+/// Tick label: plain for moderate magnitudes, scientific otherwise.
+fn tick(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 {
+        "0".into()
+    } else if (1e-3..1e4).contains(&a) {
+        let s = format!("{v:.4}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        format!("{v:.0e}")
+    }
+}
+
+/// One cell of a categorical map.
+#[derive(Debug, Clone)]
+pub struct Cell {
+    /// Column index (x).
+    pub column: usize,
+    /// Row index (y).
+    pub row: usize,
+    /// Category index into [`MapPanel`]'s legend.
+    pub category: usize,
+}
+
+/// A grid of categorical cells (e.g. stable / diverged / inaccurate over step × stiffness).
+#[derive(Debug, Clone)]
+pub struct MapPanel {
+    /// Panel title (the method).
+    pub title: String,
+    /// Labels of the columns (x), left to right.
+    pub columns: Vec<String>,
+    /// Labels of the rows (y), bottom to top.
+    pub rows: Vec<String>,
+    /// The filled cells.
+    pub cells: Vec<Cell>,
+    /// Optional vertical marker at a fractional column position, with its label (an estimated limit).
+    pub marker: Option<(f64, String)>,
+}
+
+/// Several maps side by side under one title, sharing a legend of categories.
+#[derive(Debug, Clone)]
+pub struct Maps {
+    /// Title.
+    pub title: String,
+    /// Horizontal axis label.
+    pub x_label: String,
+    /// Vertical axis label.
+    pub y_label: String,
+    /// Category names and colours.
+    pub legend: Vec<(String, RGBColor)>,
+    /// The panels.
+    pub panels: Vec<MapPanel>,
+}
+
+impl Maps {
+    /// Draw to a PNG of [`SIZE`] (height grows with the number of panel rows).
+    pub fn save(&self, path: &Path) -> Result<(), EvalError> {
+        draw_png(path, None, |root| self.draw(root))
+    }
+
+    fn draw(&self, root: &Root) -> Result<(), String> {
+        let e = |e: &dyn std::fmt::Display| e.to_string();
+        let titled = root.titled(&self.title, (FONT, 24)).map_err(|x| e(&x))?;
+        let (body, legend) = titled.split_vertically(SIZE.1 as i32 - 80);
+        let per_row = 3.min(self.panels.len().max(1));
+        let rows = self.panels.len().div_ceil(per_row).max(1);
+        let areas = body.split_evenly((rows, per_row));
+        for (panel, area) in self.panels.iter().zip(&areas) {
+            let (nx, ny) = (panel.columns.len().max(1) as u32, panel.rows.len().max(1) as u32);
+            let mut chart = ChartBuilder::on(area)
+                .caption(&panel.title, (FONT, 17))
+                .margin(6)
+                .x_label_area_size(40)
+                .y_label_area_size(48)
+                .build_cartesian_2d((0..nx).into_segmented(), (0..ny).into_segmented())
+                .map_err(|x| e(&x))?;
+            let label = |labels: &[String], v: &SegmentValue<u32>| match v {
+                SegmentValue::CenterOf(i) => labels.get(*i as usize).cloned().unwrap_or_default(),
+                _ => String::new(),
+            };
+            chart
+                .configure_mesh()
+                .disable_mesh()
+                .x_labels(nx as usize)
+                .y_labels(ny as usize)
+                .x_label_formatter(&|v| label(&panel.columns, v))
+                .y_label_formatter(&|v| label(&panel.rows, v))
+                .x_desc(&self.x_label)
+                .y_desc(&self.y_label)
+                .label_style((FONT, 12))
+                .axis_desc_style((FONT, 13))
+                .draw()
+                .map_err(|x| e(&x))?;
+            chart
+                .draw_series(panel.cells.iter().map(|c| {
+                    let color = self.legend.get(c.category).map_or(BLACK, |l| l.1);
+                    let (x, y) = (c.column as u32, c.row as u32);
+                    let corner = |x, y| (SegmentValue::Exact(x), SegmentValue::Exact(y));
+                    Rectangle::new([corner(x, y), corner(x + 1, y + 1)], color.filled())
+                }))
+                .map_err(|x| e(&x))?;
+            if let Some((at, text)) = &panel.marker {
+                // A dashed vertical line at a fractional column position, in pixels.
+                let pixel = |x: u32, y: u32| chart.backend_coord(&(SegmentValue::Exact(x), SegmentValue::Exact(y)));
+                let (x0, bottom) = pixel(0, 0);
+                let (x1, top) = pixel(nx, ny);
+                let x = x0 + ((x1 - x0) as f64 * at / nx as f64).round() as i32;
+                let style = BLACK.stroke_width(2);
+                root.draw(&PathElement::new(vec![(x, bottom), (x, top)], style)).map_err(|x| e(&x))?;
+                root.draw(&Text::new(text.clone(), (x + 4, top + 2), (FONT, 12))).map_err(|x| e(&x))?;
+            }
+        }
+        // The legend: a swatch and a name per category, in one row.
+        let mut x = 20;
+        for (name, color) in &self.legend {
+            legend.draw(&Rectangle::new([(x, 30), (x + 18, 48)], color.filled())).map_err(|x| e(&x))?;
+            legend.draw(&Text::new(name.clone(), (x + 24, 32), (FONT, 16))).map_err(|x| e(&x))?;
+            x += 30 + 9 * name.chars().count() as i32;
+        }
+        Ok(())
+    }
+}
+
+type Root<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+
+/// One bar: its label, value and colour.
+pub type Bar = (String, f64, RGBColor);
+
+/// Grouped bars on a logarithmic value axis: one group per label, one bar per entry.
+#[derive(Debug, Clone)]
+pub struct Bars {
+    /// Title.
+    pub title: String,
+    /// Value axis label (with unit); the axis is logarithmic.
+    pub y_label: String,
+    /// Groups: label and its bars.
+    pub groups: Vec<(String, Vec<Bar>)>,
+}
+
+impl Bars {
+    /// Draw to a PNG of [`SIZE`].
+    pub fn save(&self, path: &Path) -> Result<(), EvalError> {
+        draw_png(path, None, |root| self.draw(root))
+    }
+
+    fn draw(&self, root: &Root) -> Result<(), String> {
+        let e = |e: &dyn std::fmt::Display| e.to_string();
+        let values = self.groups.iter().flat_map(|g| g.1.iter().map(|b| b.1));
+        let yr = extent(values, true);
+        let n = self.groups.len().max(1) as u32;
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, (FONT, 24))
+            .margin(16)
+            .x_label_area_size(56)
+            .y_label_area_size(86)
+            .build_cartesian_2d((0..n).into_segmented(), yr.clone().log_scale())
+            .map_err(|x| e(&x))?;
+        let labels: Vec<String> = self.groups.iter().map(|g| g.0.clone()).collect();
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(n as usize)
+            .x_label_formatter(&|v| match v {
+                SegmentValue::CenterOf(i) => labels.get(*i as usize).cloned().unwrap_or_default(),
+                _ => String::new(),
+            })
+            .y_label_formatter(&|v| tick(*v))
+            .y_desc(&self.y_label)
+            .label_style((FONT, 15))
+            .axis_desc_style((FONT, 18))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(|x| e(&x))?;
+        let pixel = |i: u32, v: f64| chart.backend_coord(&(SegmentValue::Exact(i), v));
+        for (gi, (_, bars)) in self.groups.iter().enumerate() {
+            let (left, _) = pixel(gi as u32, yr.start);
+            let (right, _) = pixel(gi as u32 + 1, yr.start);
+            let width = (right - left) as f64 * 0.8 / bars.len().max(1) as f64;
+            for (bi, (label, value, color)) in bars.iter().enumerate() {
+                if !(value.is_finite() && *value > 0.0) {
+                    continue;
+                }
+                let x0 = left + ((right - left) as f64 * 0.1 + width * bi as f64) as i32;
+                let (_, top) = pixel(gi as u32, *value);
+                let (_, bottom) = pixel(gi as u32, yr.start);
+                root.draw(&Rectangle::new([(x0, top), (x0 + width as i32 - 2, bottom)], color.filled()))
+                    .map_err(|x| e(&x))?;
+                let text = format!("{label}: {}", tick(*value));
+                root.draw(&Text::new(text, (x0, top - 16), (FONT, 13))).map_err(|x| e(&x))?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Draw into an RGB buffer of [`SIZE`] (white, or starting from `under`) and save it as PNG, atomically.
+fn draw_png(
+    path: &Path,
+    under: Option<RgbImage>,
+    draw: impl FnOnce(&Root) -> Result<(), String>,
+) -> Result<(), EvalError> {
+    register_font();
+    let (w, h) = SIZE;
+    let fail = |reason: String| EvalError::Chart { path: path.to_path_buf(), reason };
+    let mut buffer = under.map_or_else(|| vec![255u8; (w * h * 3) as usize], RgbImage::into_raw);
+    if buffer.len() != (w * h * 3) as usize {
+        return Err(fail("the picture under the chart is not of the chart's size".into()));
+    }
+    {
+        let root = BitMapBackend::with_buffer(&mut buffer, (w, h)).into_drawing_area();
+        draw(&root).map_err(fail)?;
+        root.present().map_err(|e| fail(e.to_string()))?;
+    }
+    let image = RgbImage::from_raw(w, h, buffer).ok_or_else(|| fail("buffer size".into()))?;
+    Ok(crate::render::save_png(&image::DynamicImage::ImageRgb8(image).to_rgba8(), path)?)
+}
+
+/// Pictures (renders) in a grid, each with a caption under it, under one title.
+#[derive(Debug, Clone)]
+pub struct Tiles {
+    /// Title.
+    pub title: String,
+    /// Pictures per row.
+    pub columns: usize,
+    /// The pictures and their captions, row by row.
+    pub tiles: Vec<(RgbaImage, String)>,
+}
+
+/// Height of a chart's title band and of a tile's caption band, pixels.
+const TITLE_HEIGHT: u32 = 44;
+const CAPTION_HEIGHT: u32 = 30;
+
+impl Tiles {
+    /// The size each picture must have for `columns` × `rows` tiles in a chart of [`SIZE`].
+    pub fn tile_size(columns: usize, rows: usize) -> (u32, u32) {
+        let (c, r) = (columns.max(1) as u32, rows.max(1) as u32);
+        (SIZE.0 / c, (SIZE.1 - TITLE_HEIGHT) / r - CAPTION_HEIGHT)
+    }
+
+    /// Compose and save (pictures of another size than [`Tiles::tile_size`] are refused).
+    pub fn save(&self, path: &Path) -> Result<(), EvalError> {
+        let columns = self.columns.max(1);
+        let rows = self.tiles.len().div_ceil(columns);
+        let (tw, th) = Self::tile_size(columns, rows);
+        let mut canvas = RgbImage::from_pixel(SIZE.0, SIZE.1, image::Rgb([255, 255, 255]));
+        let origin =
+            |i: usize| ((i % columns) as u32 * tw, TITLE_HEIGHT + (i / columns) as u32 * (th + CAPTION_HEIGHT));
+        for (i, (picture, _)) in self.tiles.iter().enumerate() {
+            if picture.dimensions() != (tw, th) {
+                let reason = format!("tile {i} is {:?}, expected {:?}", picture.dimensions(), (tw, th));
+                return Err(EvalError::Chart { path: path.to_path_buf(), reason });
+            }
+            let (x0, y0) = origin(i);
+            for (x, y, p) in picture.enumerate_pixels() {
+                canvas.put_pixel(x0 + x, y0 + y, image::Rgb([p.0[0], p.0[1], p.0[2]]));
+            }
+        }
+        draw_png(path, Some(canvas), |root| {
+            let e = |e: &dyn std::fmt::Display| e.to_string();
+            root.draw(&Text::new(self.title.clone(), (16, 10), (FONT, 24))).map_err(|x| e(&x))?;
+            for (i, (_, caption)) in self.tiles.iter().enumerate() {
+                let (x0, y0) = origin(i);
+                let at = ((x0 + 10) as i32, (y0 + th + 6) as i32);
+                root.draw(&Text::new(caption.clone(), at, (FONT, 17))).map_err(|x| e(&x))?;
+            }
+            Ok(())
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_plot_with_text_is_drawn_at_its_size_and_is_not_blank() {
+        let dir = std::env::temp_dir().join(format!("shellwarp-chart-{}", std::process::id()));
+        let path = dir.join("c.png");
+        let plot = Plot {
+            title: "test".into(),
+            x: Axis::log("x (m)"),
+            y: Axis::linear("y (1)"),
+            series: vec![Series {
+                label: "mwts".into(),
+                color: method_color("mwts"),
+                style: Style::Line,
+                points: vec![(1.0, 0.0), (10.0, 1.0), (100.0, 0.5), (f64::NAN, 1.0)],
+            }],
+        };
+        plot.save(&path).unwrap();
+        let img = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), SIZE);
+        let blue = img.pixels().filter(|p| p.0 == [31, 119, 180]).count();
+        assert!(blue > 200, "the series is drawn ({blue} pixels)");
+        // Text: dark grey anti-aliased pixels that are neither white nor the series' colour.
+        let text = img.pixels().filter(|p| p.0[0] < 100 && p.0[0] == p.0[1] && p.0[1] == p.0[2]).count();
+        assert!(text > 500, "labels are drawn with the bundled font ({text} pixels)");
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn colours_are_fixed_per_method_and_distinct() {
+        let names = ["lma", "mwts", "mwts-rs", "ds-static", "ds", "ds-implicit", "cloth", "cloth-quad", "pbd", "xpbd"];
+        let colors: Vec<_> = names.iter().map(|n| method_color(n)).collect();
+        for (i, a) in colors.iter().enumerate() {
+            assert!(colors[i + 1..].iter().all(|b| b != a), "{} shares its colour", names[i]);
+        }
+        assert_eq!(method_color("new-method"), method_color("new-method"));
+    }
+}

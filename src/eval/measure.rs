@@ -1,0 +1,228 @@
+//! What the experiments measure, shared by all of them: building a solver for a scene with
+//! overrides, running it to rest or for a time while timing its steps, the static reference, and the
+//! error measures (relative displacement-field error, relative area change).
+
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::EvalError;
+use crate::scene::{self, Setup};
+use crate::solver::{self, Solver, SolverError};
+
+/// A scene with a method and overrides, realised.
+pub fn setup(scene_name: &str, method: &str, overrides: &[String]) -> Result<Setup, EvalError> {
+    let mut all = overrides.to_vec();
+    all.push(format!("solver.method={method}"));
+    Ok(scene::load(scene_name, &all)?)
+}
+
+/// Build the setup's solver.
+pub fn build(setup: &Setup) -> Result<Box<dyn Solver>, EvalError> {
+    let method = setup.scene.solver.method.clone();
+    solver::build(setup).map_err(EvalError::solver(format!("building {method} for {}", setup.scene.name)))
+}
+
+/// How a run ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// Came to rest (position change per step below the tolerance).
+    Rest,
+    /// Ran its whole time without coming to rest (or was not asked to).
+    Ran,
+    /// The solver reported divergence (its own message).
+    Diverged(SolverError),
+}
+
+/// A timed run.
+#[derive(Debug, Clone)]
+pub struct Run {
+    /// Final positions (the last finite state if it diverged).
+    pub positions: Vec<DVec3>,
+    /// How it ended.
+    pub outcome: Outcome,
+    /// Steps taken.
+    pub steps: u64,
+    /// Simulated time reached, s.
+    pub sim_time: f64,
+    /// Wall-clock time spent inside `step`, s.
+    pub wall: f64,
+    /// Steps whose inner solve did not converge.
+    pub unconverged_steps: u64,
+}
+
+impl Run {
+    /// Wall-clock seconds per simulated second (NaN if nothing was simulated).
+    pub fn cost(&self) -> f64 {
+        if self.sim_time > 0.0 { self.wall / self.sim_time } else { f64::NAN }
+    }
+
+    /// The outcome as one word for tables: `rest`, `ran` or `diverged`.
+    pub fn outcome_word(&self) -> &'static str {
+        match self.outcome {
+            Outcome::Rest => "rest",
+            Outcome::Ran => "ran",
+            Outcome::Diverged(_) => "diverged",
+        }
+    }
+
+    /// The solver's divergence message, or empty.
+    pub fn message(&self) -> String {
+        match &self.outcome {
+            Outcome::Diverged(e) => e.to_string(),
+            _ => String::new(),
+        }
+    }
+}
+
+/// When to stop a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stop {
+    /// Simulated time limit, s.
+    pub max_time: f64,
+    /// Step limit.
+    pub max_steps: u64,
+    /// Rest: stop once `‖x⁺ − x‖ ≤ rest · ‖x⁺ − X‖` for [`REST_STEPS`] steps in a row (0: never).
+    pub rest: f64,
+}
+
+/// Consecutive quiet steps that make a rest.
+pub const REST_STEPS: usize = 5;
+
+/// Step until `stop` says so or the solver diverges, timing only the steps.
+pub fn run(solver: &mut dyn Solver, rest: &[DVec3], stop: Stop) -> Run {
+    let mut wall = 0.0;
+    let mut steps = 0;
+    let mut sim_time = 0.0;
+    let mut unconverged_steps = 0;
+    let mut quiet = 0;
+    let mut previous = solver.positions().to_vec();
+    let outcome = loop {
+        if sim_time >= stop.max_time * (1.0 - 1e-9) || steps >= stop.max_steps {
+            break Outcome::Ran;
+        }
+        let start = Instant::now();
+        let result = solver.step();
+        wall += start.elapsed().as_secs_f64();
+        match result {
+            Ok(stats) => {
+                steps += 1;
+                sim_time = stats.sim_time;
+                unconverged_steps += u64::from(!stats.converged);
+            }
+            Err(e) => break Outcome::Diverged(e),
+        }
+        let x = solver.positions();
+        if stop.rest > 0.0 {
+            let moved = distance(x, &previous);
+            quiet = if moved <= stop.rest * distance(x, rest) { quiet + 1 } else { 0 };
+            if quiet >= REST_STEPS {
+                previous.copy_from_slice(x);
+                break Outcome::Rest;
+            }
+        }
+        previous.copy_from_slice(x);
+    };
+    Run { positions: previous, outcome, steps, sim_time, wall, unconverged_steps }
+}
+
+/// `‖a − b‖₂` over all vertices.
+pub fn distance(a: &[DVec3], b: &[DVec3]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| (*p - *q).length_squared()).sum::<f64>().sqrt()
+}
+
+/// Relative displacement-field error `‖u − u_ref‖ / ‖u_ref‖` (`u = x − X`).
+pub fn relative_error(x: &[DVec3], reference: &[DVec3], rest: &[DVec3]) -> f64 {
+    distance(x, reference) / distance(reference, rest)
+}
+
+/// Total area of a triangle mesh at positions `x`, m².
+pub fn area(x: &[DVec3], triangles: &[[usize; 3]]) -> f64 {
+    triangles.iter().map(|t| 0.5 * (x[t[1]] - x[t[0]]).cross(x[t[2]] - x[t[0]]).length()).sum()
+}
+
+/// Relative area change `(A − A₀) / A₀` (signed).
+pub fn area_change(x: &[DVec3], setup: &Setup) -> f64 {
+    let tris = setup.mesh.triangles();
+    let a0 = area(setup.mesh.positions(), tris);
+    (area(x, tris) - a0) / a0
+}
+
+/// The static reference: `ds-static` with its default settings, one step from rest.
+#[derive(Debug, Clone)]
+pub struct Reference {
+    /// Equilibrium positions.
+    pub positions: Vec<DVec3>,
+    /// Relative residual it reached.
+    pub relative_residual: f64,
+    /// Whether it converged (relative residual within its tolerance).
+    pub converged: bool,
+    /// Newton iterations.
+    pub iterations: u32,
+    /// Wall-clock time of the solve, s.
+    pub wall: f64,
+}
+
+/// Relative residual a reference must reach to be compared with.
+pub const REFERENCE_TOLERANCE: f64 = 1e-8;
+
+/// Solve the static equilibrium of `scene_name` with `overrides` by `ds-static` at its defaults.
+pub fn reference(scene_name: &str, overrides: &[String]) -> Result<Reference, EvalError> {
+    let s = setup(scene_name, "ds-static", overrides)?;
+    let mut solver = build(&s)?;
+    let start = Instant::now();
+    let stats = solver.step().map_err(EvalError::solver(format!("ds-static on {scene_name}")))?;
+    Ok(Reference {
+        positions: solver.positions().to_vec(),
+        relative_residual: stats.relative_residual,
+        converged: stats.converged && stats.relative_residual <= REFERENCE_TOLERANCE,
+        iterations: stats.iterations,
+        wall: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Rayleigh mass damping `α = 2ω₁` that critically damps the lowest mode of a shell scene (from its
+/// modal analysis with one mode), so every mode decays at least like `e^{−ω₁t}` and a run comes to
+/// rest in a few `1/ω₁`. Returns `(α, ω₁)`.
+pub fn critical_damping(setup: &Setup) -> Result<(f64, f64), EvalError> {
+    use crate::energy::ShellStiffness;
+    use crate::solver::modal::compute::{ModalProblem, analyse};
+    let masses = setup.masses();
+    let problem = ModalProblem {
+        mesh: &setup.mesh,
+        anchors: &setup.anchors,
+        masses: &masses,
+        stiffness: ShellStiffness::from(&setup.scene.material),
+        modes: 1,
+    };
+    let a = analyse(&problem, &|_| {}).map_err(EvalError::solver(format!("modal analysis of {}", setup.scene.name)))?;
+    let omega = a.basis.eigenvalues[0].sqrt();
+    Ok((2.0 * omega, omega))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn error_and_area_measures() {
+        let rest = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        let x = [DVec3::ZERO, DVec3::X * 2.0, DVec3::Y];
+        let r = [DVec3::ZERO, DVec3::X * 3.0, DVec3::Y];
+        assert!((relative_error(&x, &r, &rest) - 0.5).abs() < 1e-15);
+        assert!((area(&rest, &[[0, 1, 2]]) - 0.5).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_damped_shell_comes_to_rest_and_the_run_is_timed() {
+        let s = setup("cantilever", "lma", &["solver.rayleigh_alpha=16".into()]).unwrap();
+        let mut solver = build(&s).unwrap();
+        let r = run(solver.as_mut(), s.mesh.positions(), Stop { max_time: 20.0, max_steps: u64::MAX, rest: 1e-7 });
+        assert_eq!(r.outcome, Outcome::Rest, "after {} s", r.sim_time);
+        assert!(r.sim_time < 5.0 && r.wall > 0.0 && r.cost() > 0.0);
+        // At rest under gravity: another second changes nothing to the tolerance's order.
+        let more = run(solver.as_mut(), s.mesh.positions(), Stop { max_time: 1.0, max_steps: u64::MAX, rest: 0.0 });
+        let moved = relative_error(&r.positions, &more.positions, s.mesh.positions());
+        assert!(moved < 1e-4, "still moving: {moved:.2e}");
+    }
+}
