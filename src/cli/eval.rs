@@ -61,7 +61,8 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     run_with_progress(&cases, args)?;
-    let sections = eval::merge(std::slice::from_ref(&args.out), &args.out).context("writing the report")?;
+    let only = eval::chosen(&args.experiments)?;
+    let sections = eval::merge_only(std::slice::from_ref(&args.out), &args.out, &only).context("writing the report")?;
     let charts: usize = sections.iter().map(|s| s.charts.len()).sum();
     println!(
         "{} case(s), {} experiment(s), {charts} chart(s) → {}",

@@ -20,7 +20,7 @@ pub mod table;
 
 use std::path::{Path, PathBuf};
 
-pub use runner::{CaseId, merge, plan, run_case, run_cases};
+pub use runner::{CaseId, chosen, merge, merge_only, plan, run_case, run_cases};
 pub use table::{Column, Table, Value};
 
 use crate::render::RenderError;

@@ -50,14 +50,20 @@ impl CaseId {
     }
 }
 
+/// The named experiments (`all` for every one), in the summary's order.
+pub fn chosen(names: &[String]) -> Result<Vec<&'static dyn Experiment>, EvalError> {
+    for n in names.iter().filter(|n| *n != "all") {
+        find(n)?;
+    }
+    Ok(experiments().iter().copied().filter(|e| names.iter().any(|n| n == "all" || n == e.name())).collect())
+}
+
 /// Every case of the named experiments (`all` for every experiment), in report order.
 pub fn plan(names: &[String], quick: bool) -> Result<Vec<CaseId>, EvalError> {
-    let chosen: Vec<&'static dyn Experiment> = if names.iter().any(|n| n == "all") {
-        experiments().to_vec()
-    } else {
-        names.iter().map(|n| find(n)).collect::<Result<_, _>>()?
-    };
-    Ok(chosen.iter().flat_map(|e| e.cases(quick).into_iter().map(|key| CaseId { experiment: e.name(), key })).collect())
+    Ok(chosen(names)?
+        .iter()
+        .flat_map(|e| e.cases(quick).into_iter().map(|key| CaseId { experiment: e.name(), key }))
+        .collect())
 }
 
 /// Run one case and write its table to `out/cases/`.
@@ -113,9 +119,15 @@ pub fn run_cases(
 /// sections. Experiments without any case file are left out; cases missing from an experiment's plan
 /// are listed in its section (and returned as an error after everything else is written).
 pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<Vec<Section>, EvalError> {
+    merge_only(inputs, out, experiments())
+}
+
+/// [`merge`] restricted to some experiments (a one-shot run reports what it ran, whatever else an
+/// output directory holds from earlier runs).
+pub fn merge_only(inputs: &[PathBuf], out: &Path, only: &[&'static dyn Experiment]) -> Result<Vec<Section>, EvalError> {
     let mut sections = Vec::new();
     let mut missing_all = Vec::new();
-    for e in experiments() {
+    for e in only {
         let mut table = Table::new(e.columns());
         let mut found = Vec::new();
         // Whichever sweep (quick or full) contains every case found is the plan they came from.

@@ -57,6 +57,9 @@ const SUBSTEP: ParamSpec = ParamSpec {
     integer: false,
 };
 
+/// The [`Solver::info`] label of the estimated stable limit of the substep, `2/ω_max` at rest (s).
+pub const STABLE_LIMIT_INFO: &str = "stable limit 2/ω_max (s)";
+
 /// The explicit discrete-shell integrator.
 pub struct DsExplicit {
     model: ShellModel,
@@ -211,6 +214,10 @@ impl Solver for DsExplicit {
         }
         let all: Vec<ParamSpec> = SHELL_PARAMS.iter().copied().chain([FRAME, SUBSTEP]).collect();
         ParamSpec::find(METHOD.name, &all, name).map(|_| ())
+    }
+
+    fn info(&self) -> Vec<(&'static str, f64)> {
+        vec![("substep (s)", self.substep()), (STABLE_LIMIT_INFO, self.limit.step)]
     }
 
     fn notes(&self) -> Vec<String> {

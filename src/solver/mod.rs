@@ -20,7 +20,7 @@ mod stability;
 mod stats;
 
 pub use drag::{Drag, DragId, DragKind, DragSet};
-pub use ds_explicit::DsExplicit;
+pub use ds_explicit::{DsExplicit, STABLE_LIMIT_INFO};
 pub use ds_implicit::DsImplicit;
 pub use ds_static::DsStatic;
 pub use error::SolverError;

@@ -2,20 +2,24 @@
 
 mod fig4;
 mod fig6;
+mod pareto;
 mod perf;
+mod stability;
 
 use glam::DVec3;
 
 pub use fig4::PaperFig4;
 pub use fig6::PaperFig6;
+pub use pareto::Pareto;
 pub use perf::PaperPerf;
+pub use stability::Stability;
 
 use super::report::ChartRef;
 use super::table::Value;
 use super::{EvalError, Experiment, chart};
 
 /// Every experiment, in the summary's order.
-pub const ALL: &[&dyn Experiment] = &[&PaperFig6, &PaperFig4, &PaperPerf];
+pub const ALL: &[&dyn Experiment] = &[&PaperFig6, &PaperFig4, &PaperPerf, &Pareto, &Stability];
 
 /// A chart of the standard size, for a section.
 fn chart_ref(file: String, caption: String) -> ChartRef {

@@ -13,8 +13,6 @@ use super::super::report::{Section, bold};
 use super::super::table::{Column, Table, Value, computed, timed};
 use super::super::{EvalError, Experiment};
 use super::chart_ref;
-use crate::energy::ShellStiffness;
-use crate::solver::modal::compute::{ModalProblem, analyse};
 
 /// The experiment.
 pub struct PaperPerf;
@@ -71,15 +69,7 @@ impl Experiment for PaperPerf {
         match case {
             "creature" => {
                 let setup = measure::setup("creature", "mwts", &[])?;
-                let masses = setup.masses();
-                let problem = ModalProblem {
-                    mesh: &setup.mesh,
-                    anchors: &setup.anchors,
-                    masses: &masses,
-                    stiffness: ShellStiffness::from(&setup.scene.material),
-                    modes: setup.scene.solver.modes,
-                };
-                let a = analyse(&problem, &|_| {}).map_err(EvalError::solver("modal analysis of the creature"))?;
+                let a = measure::modal_analysis(&setup, setup.scene.solver.modes)?;
                 let t = a.timings;
                 let total = t.assembly + t.factorisation + t.eigen;
                 let nan = f64::NAN;

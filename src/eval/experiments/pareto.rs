@@ -1,0 +1,353 @@
+//! `pareto`: cost against accuracy. For three families of scenes — a beam under load, a beam twisted by
+//! a drag, a cloth draped on a ball — every method and setting is one point: its wall-clock cost per
+//! simulated second against its relative displacement-field error versus the family's reference. The
+//! points no other point beats in both (the Pareto front) are drawn and listed.
+//!
+//! - `beam`: the flat `cantilever` under 2.5 g, run from rest to rest (critical damping of the lowest
+//!   mode); reference `ds-static`.
+//! - `twist`: the same strip without gravity, its tip row turned by 90° about the beam's axis over the
+//!   first 0.5 s and held, to rest; modal methods by orientation drags on the tip row, the discrete
+//!   shells (which have no orientation drags) by position drags on the rigidly turned tip row;
+//!   reference `ds-static` walked through the same turn in 10° steps.
+//! - `drape`: the 961-particle `drape`, 1 s of simulated time (the cloth has reached the ball and
+//!   folds); reference `cloth` at h = 1/1600 s and PCG tolerance 1e-5.
+
+use std::path::Path;
+
+use glam::{DQuat, DVec3};
+
+use super::super::chart::{Axis, Plot, Series, Style, method_color};
+use super::super::measure::{self, Run, Stop};
+use super::super::report::{Section, bold};
+use super::super::table::{Column, Table, computed, timed};
+use super::super::{EvalError, Experiment};
+use super::chart_ref;
+use crate::solver::{Drag, DragKind, Solver, SolverError, registry};
+
+/// The experiment.
+pub struct Pareto;
+
+const COLUMNS: &[Column] = &[
+    computed("case", ""),
+    computed("family", ""),
+    computed("method", ""),
+    computed("setting", ""),
+    computed("rel_error", ""),
+    computed("outcome", ""),
+    computed("sim_time", "s"),
+    computed("steps", ""),
+    computed("ref_converged", ""),
+    timed("cost", "s/s"),
+];
+
+/// One point to measure: a method with settings (scene overrides).
+struct Point {
+    family: &'static str,
+    method: &'static str,
+    setting: String,
+    overrides: Vec<String>,
+}
+
+impl Point {
+    fn key(&self) -> String {
+        format!("{}/{}/{}", self.family, self.method, self.setting)
+    }
+}
+
+const MODES: [usize; 7] = [1, 2, 4, 8, 16, 32, 64];
+const QUICK_MODES: [usize; 3] = [2, 8, 32];
+
+/// The modal methods compared (those registered).
+fn modal_methods() -> Vec<&'static str> {
+    ["lma", "mwts", "mwts-rs"].into_iter().filter(|m| registry::find(m).is_ok()).collect()
+}
+
+fn points(quick: bool) -> Vec<Point> {
+    let mut v = Vec::new();
+    let modes: &[usize] = if quick { &QUICK_MODES } else { &MODES };
+    for family in ["beam", "twist"] {
+        for method in modal_methods() {
+            for m in modes {
+                let overrides = vec![format!("solver.modes={m}")];
+                v.push(Point { family, method, setting: format!("modes={m}"), overrides });
+            }
+        }
+        let steps: &[(&str, f64)] = if quick {
+            &[("1/30", 1.0 / 30.0)]
+        } else {
+            &[("1/30", 1.0 / 30.0), ("1/100", 0.01), ("1/300", 1.0 / 300.0)]
+        };
+        for (label, h) in steps {
+            v.push(Point {
+                family,
+                method: "ds-implicit",
+                setting: format!("h={label}"),
+                overrides: vec![format!("solver.step={h}")],
+            });
+        }
+        v.push(Point { family, method: "ds", setting: "substep=auto".into(), overrides: vec![] });
+        if !quick {
+            v.push(Point {
+                family,
+                method: "ds",
+                setting: "substep=1e-5".into(),
+                overrides: vec!["solver.substep=1e-5".into()],
+            });
+        }
+    }
+    let cloth: &[(f64, f64)] = if quick {
+        &[(0.02, 1e-2), (0.01, 1e-2), (0.005, 1e-3)]
+    } else {
+        &[
+            (0.02, 1e-1),
+            (0.02, 1e-2),
+            (0.01, 1e-1),
+            (0.01, 1e-2),
+            (0.01, 1e-3),
+            (0.005, 1e-2),
+            (0.005, 1e-3),
+            (0.0025, 1e-3),
+        ]
+    };
+    for (h, tol) in cloth {
+        let overrides = vec![format!("solver.step={h}"), format!("solver.tolerance={tol}")];
+        v.push(Point { family: "drape", method: "cloth", setting: format!("h={h}_tol={tol}"), overrides });
+    }
+    v
+}
+
+/// Families: title, and the scene each runs.
+const FAMILIES: [(&str, &str); 3] = [
+    ("beam", "beam under 2.5 g (cantilever strip)"),
+    ("twist", "beam twisted 90° by a drag"),
+    ("drape", "cloth draped on a ball (961 particles)"),
+];
+
+const BEAM_GRAVITY: f64 = 2.5 * 9.81;
+const TWIST: f64 = std::f64::consts::FRAC_PI_2;
+const TWIST_RAMP: f64 = 0.5;
+const DRAPE_TIME: f64 = 1.0;
+
+impl Experiment for Pareto {
+    fn name(&self) -> &'static str {
+        "pareto"
+    }
+
+    fn title(&self) -> &'static str {
+        "Cost against accuracy: every method and setting, and the Pareto front"
+    }
+
+    fn columns(&self) -> &'static [Column] {
+        COLUMNS
+    }
+
+    fn cases(&self, quick: bool) -> Vec<String> {
+        points(quick).iter().map(Point::key).collect()
+    }
+
+    fn run(&self, case: &str, _quick: bool, _out: &Path, _progress: &dyn Fn(f32)) -> Result<Table, EvalError> {
+        let point = points(false)
+            .into_iter()
+            .chain(points(true))
+            .find(|p| p.key() == case)
+            .ok_or_else(|| EvalError::UnknownCase(case.into()))?;
+        let (reference, run, rest) = match point.family {
+            "beam" => beam(&point)?,
+            "twist" => twist(&point)?,
+            _ => drape(&point)?,
+        };
+        let mut table = Table::new(COLUMNS);
+        table.push(vec![
+            ("case", case.into()),
+            ("family", point.family.into()),
+            ("method", point.method.into()),
+            ("setting", point.setting.clone().into()),
+            ("rel_error", measure::relative_error(&run.positions, &reference.0, &rest).into()),
+            ("outcome", run.outcome_word().into()),
+            ("sim_time", run.sim_time.into()),
+            ("steps", (run.steps as f64).into()),
+            ("ref_converged", super::f(reference.1)),
+            ("cost", run.cost().into()),
+        ])?;
+        Ok(table)
+    }
+
+    fn report(&self, table: &Table, out: &Path) -> Result<Section, EvalError> {
+        let mut section = Section {
+            experiment: self.name().into(),
+            title: self.title().into(),
+            setup: "Cost: wall-clock seconds per simulated second, one thread. Error: ‖u − u_ref‖ / ‖u_ref‖ over all \
+                    vertices against the family's reference. `beam`: the flat cantilever under 2.5 g, run to rest \
+                    (critical damping of its lowest mode), reference `ds-static`. `twist`: the strip without gravity, \
+                    tip row turned 90° about its axis over 0.5 s and held, run to rest — modal methods by orientation \
+                    drags, discrete shells by position drags on the turned tip row; reference `ds-static` walked \
+                    through the turn in 10° steps. `drape`: the 961-particle drape after 1 s; reference `cloth` at \
+                    h = 1/1600 s, PCG tolerance 1e-5. A point is on the front when no other point of its family is \
+                    both cheaper and more accurate. Points whose reference did not converge are not plotted."
+                .into(),
+            ..Section::default()
+        };
+        let (fi, mi, si, ei, ci, ri) = (
+            table.index("family")?,
+            table.index("method")?,
+            table.index("setting")?,
+            table.index("rel_error")?,
+            table.index("cost")?,
+            table.index("ref_converged")?,
+        );
+        for (family, title) in FAMILIES {
+            let members: Vec<usize> = (0..table.rows.len())
+                .filter(|&i| table.rows[i][fi].text() == family && table.rows[i][ri].num() == 1.0)
+                .filter(|&i| table.rows[i][ei].num().is_finite() && table.rows[i][ci].num().is_finite())
+                .collect();
+            if members.is_empty() {
+                continue;
+            }
+            let point = |i: usize| (table.rows[i][ci].num(), table.rows[i][ei].num());
+            let mut front: Vec<usize> = members
+                .iter()
+                .copied()
+                .filter(|&i| {
+                    let (c, e) = point(i);
+                    !members.iter().any(|&j| {
+                        let (cj, ej) = point(j);
+                        j != i && cj <= c && ej <= e && (cj < c || ej < e)
+                    })
+                })
+                .collect();
+            front.sort_by(|a, b| point(*a).0.total_cmp(&point(*b).0));
+            let mut methods: Vec<String> = members.iter().map(|&i| table.rows[i][mi].text()).collect();
+            methods.dedup();
+            let mut series: Vec<Series> = methods
+                .iter()
+                .map(|m| Series {
+                    label: m.clone(),
+                    color: method_color(m),
+                    style: Style::Points,
+                    points: members.iter().filter(|&&i| table.rows[i][mi].text() == *m).map(|&i| point(i)).collect(),
+                })
+                .collect();
+            series.push(Series {
+                label: "Pareto front".into(),
+                color: plotters::style::RGBColor(0, 0, 0),
+                style: Style::Dashed,
+                points: front.iter().map(|&i| point(i)).collect(),
+            });
+            let file = format!("{}-{family}.png", self.name());
+            Plot {
+                title: format!("{title}: cost against error"),
+                x: Axis::log("cost (wall-clock s per simulated s)"),
+                y: Axis::log("relative displacement error"),
+                series,
+            }
+            .save(&out.join(&file))?;
+            section.charts.push(chart_ref(file, format!("{family}: cost against error, Pareto front dashed")));
+            let listed: Vec<String> = front
+                .iter()
+                .map(|&i| {
+                    let r = &table.rows[i];
+                    format!(
+                        "`{}` {} ({} s/s, error {})",
+                        r[mi].text(),
+                        r[si].text(),
+                        bold(r[ci].num()),
+                        bold(r[ei].num())
+                    )
+                })
+                .collect();
+            section.findings.push(format!("`{family}` front, cheapest first: {}.", listed.join("; ")));
+        }
+        Ok(section)
+    }
+}
+
+/// The tip row of a strip clamped at its smallest x: the vertices at the largest rest x.
+fn tip_row(rest: &[DVec3]) -> Vec<usize> {
+    let end = rest.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max);
+    (0..rest.len()).filter(|&i| rest[i].x > end - 1e-9).collect()
+}
+
+type Measured = ((Vec<DVec3>, bool), Run, Vec<DVec3>);
+
+fn beam(point: &Point) -> Result<Measured, EvalError> {
+    let gravity = vec![format!("gravity=[0, {}, 0]", -BEAM_GRAVITY)];
+    let reference = measure::reference("cantilever", &gravity)?;
+    let mut over = gravity.clone();
+    let base = measure::setup("cantilever", point.method, &over)?;
+    let (alpha, omega) = measure::critical_damping(&base)?;
+    over.push(format!("solver.rayleigh_alpha={alpha}"));
+    over.extend(point.overrides.iter().cloned());
+    let s = measure::setup("cantilever", point.method, &over)?;
+    let rest = s.mesh.positions().to_vec();
+    let run = measure::run(
+        measure::build(&s)?.as_mut(),
+        &rest,
+        Stop { max_time: 40.0 / omega, max_steps: u64::MAX, rest: 1e-7 },
+    );
+    Ok(((reference.positions, reference.converged), run, rest))
+}
+
+/// Set (first call) or move the twist drags to the turn `angle` about the tip row's axis: orientation
+/// drags where the method has them, else position drags on the turned row.
+fn twist_drags(solver: &mut dyn Solver, rest: &[DVec3], tip: &[usize], angle: f64) -> Result<(), SolverError> {
+    let centre = tip.iter().map(|&i| rest[i]).sum::<DVec3>() / tip.len() as f64;
+    let turned = |i: usize| DragKind::Position(centre + DQuat::from_rotation_x(angle) * (rest[i] - centre));
+    let existing: Vec<_> = solver.drags().iter().map(|(id, d)| (*id, d.kind)).collect();
+    if existing.is_empty() {
+        let first = Drag { vertex: tip[0], kind: DragKind::Orientation(DVec3::X * angle) };
+        let orientation = solver.drags_mut().add(first).is_ok();
+        for &i in &tip[usize::from(orientation)..] {
+            let kind = if orientation { DragKind::Orientation(DVec3::X * angle) } else { turned(i) };
+            solver.drags_mut().add(Drag { vertex: i, kind })?;
+        }
+        return Ok(());
+    }
+    for ((id, kind), &i) in existing.into_iter().zip(tip) {
+        let kind = match kind {
+            DragKind::Orientation(_) => DragKind::Orientation(DVec3::X * angle),
+            DragKind::Position(_) => turned(i),
+        };
+        solver.drags_mut().retarget(id, kind)?;
+    }
+    Ok(())
+}
+
+fn twist(point: &Point) -> Result<Measured, EvalError> {
+    let zero_g = vec!["gravity=[0, 0, 0]".to_string()];
+    // Reference: ds-static walked through the turn in 10° steps.
+    let s = measure::setup("cantilever", "ds-static", &zero_g)?;
+    let rest = s.mesh.positions().to_vec();
+    let tip = tip_row(&rest);
+    let mut reference = measure::build(&s)?;
+    let mut converged = true;
+    for k in 1..=9 {
+        twist_drags(reference.as_mut(), &rest, &tip, TWIST * k as f64 / 9.0)
+            .map_err(EvalError::solver("twisting ds-static"))?;
+        let stats = reference.step().map_err(EvalError::solver("ds-static through the twist"))?;
+        converged = stats.converged;
+    }
+    let mut over = zero_g.clone();
+    let (alpha, omega) = measure::critical_damping(&s)?;
+    over.push(format!("solver.rayleigh_alpha={alpha}"));
+    over.extend(point.overrides.iter().cloned());
+    let s = measure::setup("cantilever", point.method, &over)?;
+    let mut solver = measure::build(&s)?;
+    let stop = Stop { max_time: TWIST_RAMP + 40.0 / omega, max_steps: u64::MAX, rest: 1e-7 };
+    let run = measure::run_driven(solver.as_mut(), &rest, stop, &mut |solver, t| {
+        let angle = TWIST * ((t + solver.time_step()) / TWIST_RAMP).min(1.0);
+        twist_drags(solver, &rest, &tip, angle)
+    });
+    Ok(((reference.positions().to_vec(), converged), run, rest))
+}
+
+fn drape(point: &Point) -> Result<Measured, EvalError> {
+    let stop = Stop { max_time: DRAPE_TIME, max_steps: u64::MAX, rest: 0.0 };
+    let s = measure::setup("drape", "cloth", &["solver.step=0.000625".into(), "solver.tolerance=1e-5".into()])?;
+    let rest = s.mesh.positions().to_vec();
+    let reference = measure::run(measure::build(&s)?.as_mut(), &rest, stop);
+    let converged = matches!(reference.outcome, measure::Outcome::Ran);
+    let s = measure::setup("drape", point.method, &point.overrides)?;
+    let run = measure::run(measure::build(&s)?.as_mut(), &rest, stop);
+    // The drape's displacement is measured from the placed rest sheet.
+    Ok(((reference.positions, converged), run, rest))
+}
