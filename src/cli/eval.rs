@@ -60,9 +60,12 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
         }
         return Ok(ExitCode::SUCCESS);
     }
-    run_with_progress(&cases, args)?;
+    // A failed case is reported after the others have run and the report is written without it.
+    let ran = run_with_progress(&cases, args);
     let only = eval::chosen(&args.experiments)?;
-    let sections = eval::merge_only(std::slice::from_ref(&args.out), &args.out, &only).context("writing the report")?;
+    let merged = eval::merge_only(std::slice::from_ref(&args.out), &args.out, &only);
+    ran?;
+    let sections = merged.context("writing the report")?;
     let charts: usize = sections.iter().map(|s| s.charts.len()).sum();
     println!(
         "{} case(s), {} experiment(s), {charts} chart(s) → {}",

@@ -58,7 +58,12 @@ impl SceneArgs {
             shellwarp::solver::registry::find(m)?;
             overrides.push(format!("solver.method={m}"));
         }
-        Ok(shellwarp::scene::load(&self.scene, &overrides)?)
+        let mut setup = shellwarp::scene::load(&self.scene, &overrides)?;
+        if self.method.is_some() {
+            // An explicit method wins over an accuracy target the scene may give.
+            setup.scene.solver.accuracy = None;
+        }
+        Ok(setup)
     }
 }
 

@@ -261,8 +261,14 @@ pub struct Motion {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SolverSettings {
-    /// Registered method name (`shellwarp scenes` lists them).
+    /// Registered method name (`shellwarp scenes` lists them). May be left out when `accuracy` is
+    /// given; with `accuracy`, a cloth method selects the cloth family to choose from.
+    #[serde(default)]
     pub method: String,
+    /// Target relative displacement-field error: the program then chooses the cheapest method and
+    /// setting that meets it (see `solver::auto`), instead of `method` and `modes`.
+    #[serde(default)]
+    pub accuracy: Option<f64>,
     /// Fixed time step in seconds; the method's default if absent.
     #[serde(default)]
     pub step: Option<f64>,

@@ -165,6 +165,15 @@ impl Scene {
         if let Some(m) = s.margin {
             positive("solver.margin", m)?;
         }
+        match s.accuracy {
+            Some(a) if !(a > 0.0 && a <= 1.0) => {
+                return Err(("solver.accuracy".into(), format!("must be a relative error in (0, 1], got {a}")));
+            }
+            None if s.method.is_empty() => {
+                return Err(("solver.method".into(), "is required unless solver.accuracy is given".into()));
+            }
+            _ => {}
+        }
         vec3("camera.eye", self.camera.eye)?;
         vec3("camera.target", self.camera.target)?;
         if !(1.0..=170.0).contains(&self.camera.fov_deg) {

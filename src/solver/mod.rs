@@ -4,6 +4,7 @@
 //! The viewer, the headless renderer, `sim` and `eval` drive solvers only through this trait, so a
 //! new method is one new file plus one line in [`registry::METHODS`].
 
+pub mod auto;
 pub mod cloth;
 mod drag;
 mod ds_explicit;
@@ -15,6 +16,7 @@ mod newton;
 mod params;
 pub mod registry;
 mod rigid;
+pub mod run;
 mod shell_model;
 mod stability;
 mod stats;

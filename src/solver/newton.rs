@@ -150,38 +150,7 @@ impl ShellModel {
                 return Ok(report);
             }
             report.iterations += 1;
-            // Direction: exact Hessian, else projected, else projected + μI.
-            let mut d = vec![0.0; n];
-            let mut found = false;
-            for attempt in 0..12 {
-                let (mode, shift) = match attempt {
-                    0 => (HessianMode::Exact, 0.0),
-                    1 => (HessianMode::Projected, 0.0),
-                    k => {
-                        let scale = *mean_diag.get_or_insert_with(|| {
-                            self.asm.values().iter().map(|v: &f64| v.abs()).sum::<f64>() / self.asm.nnz() as f64
-                        });
-                        (HessianMode::Projected, scale * 10f64.powi(k - 10))
-                    }
-                };
-                if attempt == 1 {
-                    report.projected += 1;
-                }
-                if self.factor(&o, y, mode, shift).is_err() {
-                    continue;
-                }
-                d.iter_mut().zip(&g).for_each(|(d, g)| *d = -g);
-                if let Some(chol) = &self.chol {
-                    chol.solve(&mut d).map_err(|e| SolverError::Numerical(e.to_string()))?;
-                }
-                if dot(&d, &g) < 0.0 && d.iter().all(|x| x.is_finite()) {
-                    found = true;
-                    break;
-                }
-            }
-            if !found {
-                return Err(SolverError::Numerical("no descent direction: Hessian could not be regularised".into()));
-            }
+            let d = self.direction(&o, y, &g, &mut mean_diag, &mut report.projected)?;
             // Backtracking (Armijo) line search. Near convergence Φ differences drown in round-off, so a
             // step that does not raise Φ beyond that and reduces |∇Φ| is accepted too.
             let slope = dot(&d, &g);
@@ -221,6 +190,46 @@ impl ShellModel {
 }
 
 impl ShellModel {
+    /// The Newton direction `d = −H⁻¹ g`: exact Hessian, else the projected one (counted in
+    /// `projected`), else projected + `μ I` with `μ` growing tenfold from 1e-8 of the mean
+    /// diagonal entry (`mean_diag` caches that scale between calls).
+    fn direction(
+        &mut self,
+        o: &Objective,
+        y: &[DVec3],
+        g: &[f64],
+        mean_diag: &mut Option<f64>,
+        projected: &mut u32,
+    ) -> Result<Vec<f64>, SolverError> {
+        let mut d = vec![0.0; g.len()];
+        for attempt in 0..12 {
+            let (mode, shift) = match attempt {
+                0 => (HessianMode::Exact, 0.0),
+                1 => (HessianMode::Projected, 0.0),
+                k => {
+                    let scale = *mean_diag.get_or_insert_with(|| {
+                        self.asm.values().iter().map(|v: &f64| v.abs()).sum::<f64>() / self.asm.nnz() as f64
+                    });
+                    (HessianMode::Projected, scale * 10f64.powi(k - 10))
+                }
+            };
+            if attempt == 1 {
+                *projected += 1;
+            }
+            if self.factor(o, y, mode, shift).is_err() {
+                continue;
+            }
+            d.iter_mut().zip(g).for_each(|(d, g)| *d = -g);
+            if let Some(chol) = &self.chol {
+                chol.solve(&mut d).map_err(|e| SolverError::Numerical(e.to_string()))?;
+            }
+            if dot(&d, g) < 0.0 && d.iter().all(|x| x.is_finite()) {
+                return Ok(d);
+            }
+        }
+        Err(SolverError::Numerical("no descent direction: Hessian could not be regularised".into()))
+    }
+
     /// The smallest `|∇Φ|` f64 can resolve at `y`: a position is known to `ε|y|`, which moves the
     /// gradient by the Hessian times that, bounded per DOF by `H_dd ε |y_d|` (the last assembled
     /// system's diagonal). An iteration that stalls below this has converged as far as f64 allows.

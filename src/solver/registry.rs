@@ -34,7 +34,11 @@ pub fn find(name: &str) -> Result<&'static Method, SolverError> {
     })
 }
 
-/// Build the solver the scene's `solver.method` names.
+/// Build the solver the scene's `solver.method` names, or, when the scene gives `solver.accuracy`,
+/// the cheapest one that meets it ([`super::auto`]).
 pub fn build(setup: &Setup) -> Result<Box<dyn Solver>, SolverError> {
+    if setup.scene.solver.accuracy.is_some() {
+        return super::auto::build(setup);
+    }
     (find(&setup.scene.solver.method)?.build)(setup)
 }

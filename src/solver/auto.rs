@@ -1,0 +1,356 @@
+//! The automatic model choice: a scene that gives `solver.accuracy` (a relative displacement-field
+//! error) instead of a method gets the cheapest method and setting whose *estimated* error meets it.
+//! "Model no more than a scene needs."
+//!
+//! Candidates are ordered by a measured cost (wall-clock seconds per simulated second, from a few
+//! timed steps of each) and estimated in that order until one meets the target, so the expensive
+//! ones are rarely touched. The estimates never run a reference:
+//!
+//! Accuracy is that of the scene's equilibrium under its loads (where a cheaper model's error lives;
+//! a fixed step adds time-discretisation error that is not counted).
+//!
+//! - **Shells** (`rigid`, the modal methods with 1–64 modes, `ds-implicit`): the candidate's static
+//!   equilibrium (run to rest under critical damping of the lowest mode) starts
+//!   [`NEWTON_ITERATIONS`] iterations of Newton's method (with line search) on the full
+//!   discrete-shell equations; the distance they travel, relative to the displacement they arrive
+//!   at, estimates the relative error. Newton converges quadratically from a good start, so three
+//!   iterations cover nearly all of the remaining distance (one alone underestimates a 9% error on
+//!   the V-beam at 40 g by half). `rigid` has error 1 (no displacement) and `ds-implicit` 0 (it
+//!   solves the full equations, whose equilibrium does not depend on its step).
+//! - **Cloth** (`cloth` at 40, 20 and 10 ms, PCG tolerance 1e-2 to 1e-4): the candidate's rest state is relaxed by
+//!   [`RELAX_STEPS`] backward-Euler steps of 0.1 s with a tight PCG tolerance (nearly Newton steps on
+//!   the static cloth equations); the distance travelled relative to the displacement is the
+//!   estimate. It finds a candidate that stopped short of its equilibrium (the PCG's stopping rule
+//!   lets a slowly settling cloth freeze); it cannot find another equilibrium (a different fold
+//!   pattern), so path-dependent scenes are outside what it can judge.
+//!
+//! The family is the scene's `solver.method` when it names one (a cloth method: cloth), else shells.
+
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::run::{Stop, distance, run};
+use super::{NewtonSettings, ShellModel, Solver, SolverError, registry};
+use crate::scene::Setup;
+
+/// Mode counts tried by the modal methods.
+pub const MODES: [usize; 7] = [1, 2, 4, 8, 16, 32, 64];
+/// Cloth steps tried, s.
+pub const CLOTH_STEPS: [f64; 3] = [0.04, 0.02, 0.01];
+/// Cloth PCG tolerances tried.
+pub const CLOTH_TOLERANCES: [f64; 3] = [1e-2, 1e-3, 1e-4];
+/// Newton iterations of the full shell equations behind a shell estimate.
+pub const NEWTON_ITERATIONS: usize = 3;
+
+/// What a scene is made of, which decides the candidates and the estimate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Family {
+    /// A discrete shell (modal methods, the nonlinear shell).
+    Shell,
+    /// Cloth (the implicit particle cloth).
+    Cloth,
+}
+
+impl Family {
+    /// The family of a scene: cloth if its `solver.method` is a cloth method, else shell.
+    pub fn of(setup: &Setup) -> Self {
+        match setup.scene.solver.method.as_str() {
+            "cloth" | "cloth-quad" | "pbd" | "xpbd" => Family::Cloth,
+            _ => Family::Shell,
+        }
+    }
+}
+
+/// One candidate: a method and its setting, with its measured cost and (once estimated) error.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Candidate {
+    /// Registered method.
+    pub method: &'static str,
+    /// Mode count (modal methods).
+    pub modes: Option<usize>,
+    /// Time step (cloth), s.
+    pub step: Option<f64>,
+    /// Inner-solve tolerance (cloth's PCG).
+    pub tolerance: Option<f64>,
+    /// Wall-clock seconds per simulated second.
+    pub cost: f64,
+    /// Estimated relative error (NaN: not estimated, because a cheaper candidate met the target).
+    pub estimate: f64,
+}
+
+impl Candidate {
+    fn new(method: &'static str, modes: Option<usize>) -> Self {
+        Self { method, modes, step: None, tolerance: None, cost: f64::NAN, estimate: f64::NAN }
+    }
+
+    /// `method` with its setting, e.g. `mwts, 8 modes`.
+    pub fn label(&self) -> String {
+        let mut label = self.method.to_string();
+        if let Some(m) = self.modes {
+            label += &format!(", {m} modes");
+        }
+        if let Some(h) = self.step {
+            label += &format!(", h = {h} s");
+        }
+        if let Some(t) = self.tolerance {
+            label += &format!(", tolerance {t}");
+        }
+        label
+    }
+
+    /// The scene with this candidate's method and setting (and no accuracy, so it builds directly).
+    pub fn apply(&self, setup: &Setup) -> Setup {
+        let mut s = setup.clone();
+        s.scene.solver.accuracy = None;
+        s.scene.solver.method = self.method.to_string();
+        if let Some(m) = self.modes {
+            s.scene.solver.modes = m;
+        }
+        if let Some(h) = self.step {
+            s.scene.solver.step = Some(h);
+        }
+        if let Some(t) = self.tolerance {
+            s.scene.solver.tolerance = t;
+        }
+        s
+    }
+}
+
+/// The outcome of a choice: every candidate (cheapest first) and which one was chosen.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Choice {
+    /// The target relative error.
+    pub accuracy: f64,
+    /// The family searched.
+    pub family: Family,
+    /// The candidates, cheapest first.
+    pub candidates: Vec<Candidate>,
+    /// Index of the chosen one (the most accurate estimated if none meets the target).
+    pub chosen: usize,
+}
+
+impl Choice {
+    /// The chosen candidate.
+    pub fn winner(&self) -> &Candidate {
+        &self.candidates[self.chosen]
+    }
+
+    /// Why, in sentences: the choice, and the cheaper candidates it beat with their estimates.
+    pub fn explain(&self) -> Vec<String> {
+        let w = self.winner();
+        let met = w.estimate <= self.accuracy;
+        let mut lines = vec![format!(
+            "accuracy {}: {} {} (estimated error {:.3}, cost {:.2e} s per simulated s)",
+            self.accuracy,
+            if met {
+                "chose the cheapest model that meets it,"
+            } else {
+                "NO candidate meets it; chose the most accurate,"
+            },
+            w.label(),
+            w.estimate,
+            w.cost
+        )];
+        let rejected: Vec<String> = self.candidates[..self.chosen]
+            .iter()
+            .filter(|c| c.estimate.is_finite())
+            .map(|c| format!("{} ({:.3})", c.label(), c.estimate))
+            .collect();
+        if !rejected.is_empty() {
+            lines.push(format!("cheaper candidates estimated above the target: {}", rejected.join(", ")));
+        }
+        lines
+    }
+}
+
+/// Choose the method for `setup` (whose `solver.accuracy` may be unset: `accuracy` is the target).
+pub fn choose(setup: &Setup, accuracy: f64) -> Result<Choice, SolverError> {
+    let family = Family::of(setup);
+    let mut candidates = match family {
+        Family::Shell => shell_candidates(setup),
+        Family::Cloth => CLOTH_STEPS
+            .iter()
+            .flat_map(|&h| {
+                CLOTH_TOLERANCES.iter().map(move |&t| Candidate {
+                    step: Some(h),
+                    tolerance: Some(t),
+                    ..Candidate::new("cloth", None)
+                })
+            })
+            .collect(),
+    };
+    for c in &mut candidates {
+        c.cost = cost(&c.apply(setup))?;
+    }
+    candidates.sort_by(|a, b| a.cost.total_cmp(&b.cost));
+    let mut chosen = None;
+    for (i, c) in candidates.iter_mut().enumerate() {
+        c.estimate = match family {
+            Family::Cloth => cloth_estimate(setup, c)?,
+            Family::Shell => shell_estimate(setup, c)?,
+        };
+        if c.estimate <= accuracy {
+            chosen = Some(i);
+            break;
+        }
+    }
+    let chosen = chosen.unwrap_or_else(|| {
+        (0..candidates.len()).min_by(|&a, &b| candidates[a].estimate.total_cmp(&candidates[b].estimate)).unwrap_or(0)
+    });
+    Ok(Choice { accuracy, family, candidates, chosen })
+}
+
+/// Choose and build: the solver of the chosen candidate, whose notes say why it was chosen.
+pub fn build(setup: &Setup) -> Result<Box<dyn Solver>, SolverError> {
+    let accuracy = setup.scene.solver.accuracy.unwrap_or(f64::NAN);
+    let choice = choose(setup, accuracy)?;
+    let inner = registry::build(&choice.winner().apply(setup))?;
+    Ok(Box::new(Chosen { inner, why: choice.explain() }))
+}
+
+fn shell_candidates(setup: &Setup) -> Vec<Candidate> {
+    let free = 3 * (setup.mesh.vertex_count() - setup.anchors.len());
+    let mut v = vec![Candidate::new("rigid", None)];
+    for method in ["lma", "mwts", "mwts-rs"].into_iter().filter(|m| registry::find(m).is_ok()) {
+        v.extend(MODES.iter().filter(|&&m| m < free).map(|&m| Candidate::new(method, Some(m))));
+    }
+    v.push(Candidate::new("ds-implicit", None));
+    v
+}
+
+/// Wall-clock seconds per simulated second: a few steps from rest, timed (at least 20 ms of work).
+fn cost(setup: &Setup) -> Result<f64, SolverError> {
+    let mut solver = registry::build(setup)?;
+    let (mut wall, mut simulated, mut steps) = (0.0, 0.0, 0);
+    while steps < 3 || (wall < 0.02 && steps < 200) {
+        let start = Instant::now();
+        let stats = solver.step()?;
+        wall += start.elapsed().as_secs_f64();
+        simulated = stats.sim_time;
+        steps += 1;
+    }
+    Ok(wall / simulated)
+}
+
+/// The relative error estimate of a shell candidate (see the module doc).
+fn shell_estimate(setup: &Setup, c: &Candidate) -> Result<f64, SolverError> {
+    match c.method {
+        "rigid" => return Ok(1.0),
+        "ds-implicit" => return Ok(0.0),
+        _ => {}
+    }
+    let x = at_rest(setup, c)?;
+    let mut model = ShellModel::new(setup)?;
+    let mut corrected = x.clone();
+    model.minimize(&mut corrected, None, NewtonSettings { max_iterations: NEWTON_ITERATIONS, tolerance: 1e-10 })?;
+    Ok(distance(&corrected, &x) / distance(&corrected, setup.mesh.positions()))
+}
+
+/// The candidate's equilibrium under the scene's loads: shells run to rest under critical damping of
+/// their lowest mode (at most 40 time constants), cloth under its own damping (at most 20 s).
+pub fn at_rest(setup: &Setup, c: &Candidate) -> Result<Vec<DVec3>, SolverError> {
+    Ok(settle(setup, c)?.positions().to_vec())
+}
+
+/// [`at_rest`], returning the settled solver.
+fn settle(setup: &Setup, c: &Candidate) -> Result<Box<dyn Solver>, SolverError> {
+    let rest = setup.mesh.positions().to_vec();
+    let mut s = c.apply(setup);
+    let stop = match Family::of(setup) {
+        Family::Shell => {
+            let omega = lowest_frequency(setup)?;
+            s.scene.solver.rayleigh_alpha = 2.0 * omega;
+            s.scene.solver.rayleigh_beta = 0.0;
+            Stop { max_time: 40.0 / omega, max_steps: 20_000, rest: 1e-7 }
+        }
+        Family::Cloth => Stop { max_time: 20.0, max_steps: 20_000, rest: 1e-6 },
+    };
+    let mut solver = registry::build(&s)?;
+    let reached = run(solver.as_mut(), &rest, stop);
+    match reached.outcome {
+        super::run::Outcome::Diverged(e) => Err(e),
+        _ => Ok(solver),
+    }
+}
+
+/// The relative error estimate of a cloth candidate: from its rest state, [`RELAX_STEPS`] backward
+/// Euler steps of 0.1 s with a tight PCG (nearly Newton steps on the static cloth equations, `M/h²`
+/// keeping them regular); the distance they travel, relative to the displacement they arrive at.
+fn cloth_estimate(setup: &Setup, c: &Candidate) -> Result<f64, SolverError> {
+    let mut solver = settle(setup, c)?;
+    let x = solver.positions().to_vec();
+    for (name, value) in [("step", 0.1), ("tolerance", 1e-8), ("iterations", 1e5)] {
+        solver.set_param(name, value)?;
+    }
+    for _ in 0..RELAX_STEPS {
+        solver.step()?;
+    }
+    let relaxed = solver.positions();
+    Ok(distance(relaxed, &x) / distance(relaxed, setup.mesh.positions()))
+}
+
+/// Relaxation steps behind a cloth estimate.
+pub const RELAX_STEPS: usize = 5;
+
+/// `ω₁` of the anchored shell, rad/s (from a one-mode analysis).
+pub fn lowest_frequency(setup: &Setup) -> Result<f64, SolverError> {
+    use super::modal::compute::{ModalProblem, analyse};
+    let masses = setup.masses();
+    let problem = ModalProblem {
+        mesh: &setup.mesh,
+        anchors: &setup.anchors,
+        masses: &masses,
+        stiffness: crate::energy::ShellStiffness::from(&setup.scene.material),
+        modes: 1,
+    };
+    Ok(analyse(&problem, &|_| {})?.basis.eigenvalues[0].sqrt())
+}
+
+/// A chosen solver: the winner, with the reasons for choosing it among its notes.
+struct Chosen {
+    inner: Box<dyn Solver>,
+    why: Vec<String>,
+}
+
+impl Solver for Chosen {
+    fn method(&self) -> &'static str {
+        self.inner.method()
+    }
+    fn time_step(&self) -> f64 {
+        self.inner.time_step()
+    }
+    fn step(&mut self) -> Result<super::StepStats, SolverError> {
+        self.inner.step()
+    }
+    fn positions(&self) -> &[DVec3] {
+        self.inner.positions()
+    }
+    fn reset(&mut self) {
+        self.inner.reset()
+    }
+    fn params(&self) -> Vec<super::ParamValue> {
+        self.inner.params()
+    }
+    fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
+        self.inner.set_param(name, value)
+    }
+    fn drags(&self) -> &super::DragSet {
+        self.inner.drags()
+    }
+    fn drags_mut(&mut self) -> &mut super::DragSet {
+        self.inner.drags_mut()
+    }
+    fn progress(&self) -> Option<super::Progress> {
+        self.inner.progress()
+    }
+    fn poll(&mut self) -> Result<(), SolverError> {
+        self.inner.poll()
+    }
+    fn info(&self) -> Vec<(&'static str, f64)> {
+        self.inner.info()
+    }
+    fn notes(&self) -> Vec<String> {
+        self.why.iter().cloned().chain(self.inner.notes()).collect()
+    }
+}
