@@ -119,7 +119,11 @@ impl Experiment for PaperFig4 {
         }
         let image = headless.render(&frame)?;
         let id = CaseId { experiment: "paper-fig4", key: case.to_string() };
-        save_png(&image, id.artefact(out, "png"))?;
+        let path = id.artefact(out, "png");
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| EvalError::Io { path: dir.to_path_buf(), reason: e.to_string() })?;
+        }
+        save_png(&image, path)?;
         Ok(table)
     }
 
