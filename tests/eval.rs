@@ -95,7 +95,9 @@ fn the_summary_numbers_are_the_csv_values() {
         let name = section.split('`').nth(1).unwrap();
         let t = table(report(), name);
         let values: Vec<f64> = t.rows.iter().flatten().map(|v| v.num()).filter(|v| v.is_finite()).collect();
-        let printed = |scale: f64| -> Vec<String> { values.iter().flat_map(|v| [number(v * scale), number((v * scale).abs())]).collect() };
+        let printed = |scale: f64| -> Vec<String> {
+            values.iter().flat_map(|v| [number(v * scale), number((v * scale).abs())]).collect()
+        };
         let (plain, percent) = (printed(1.0), printed(100.0));
         for bold in section.split("**").skip(1).step_by(2) {
             let Some(first) = bold.chars().next() else { continue };

@@ -68,7 +68,12 @@ fn sweep(scene_name: &str, gravity: &[f64]) {
         // The closed-form warp keeps a fixed fraction of LMA's area change (derivation in warp.rs): at most a
         // quarter wherever LMA's exceeds 1% (measured 0.19 → 0.05 flat, 0.19 → 0.08 V, falling as rotations grow).
         if lma.1 > 0.01 {
-            assert!(mwts.1 <= 0.25 * lma.1, "{scene_name} g = {g}: MWTS area change {:.2e} vs LMA {:.2e}", mwts.1, lma.1);
+            assert!(
+                mwts.1 <= 0.25 * lma.1,
+                "{scene_name} g = {g}: MWTS area change {:.2e} vs LMA {:.2e}",
+                mwts.1,
+                lma.1
+            );
         }
         // The nonlinear reference keeps its area (the membrane is 2000× stiffer than bending).
         assert!(ds_area < 0.01 * lma.1.max(0.1), "{scene_name} g = {g}: DS area change {ds_area:.2e}");

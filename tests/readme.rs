@@ -58,3 +58,15 @@ fn readme_synopsis_matches_every_subcommands_help() {
         assert_eq!(long_options(&usage), long_options(&options), "README synopsis of `{sub}` vs its --help");
     }
 }
+
+/// `eval` has one synopsis line per mode; together they list exactly its options.
+#[test]
+fn readme_synopsis_of_eval_lists_its_options() {
+    let synopsis = block(&readme(), "## Command line", "text");
+    let usage: String = synopsis.lines().filter(|l| l.starts_with("shellwarp eval ")).collect::<Vec<_>>().join("\n");
+    assert!(usage.lines().count() >= 4, "run, plan, case and merge lines");
+    let help = Command::new(env!("CARGO_BIN_EXE_shellwarp")).args(["eval", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&help.stdout);
+    let options: String = help.lines().filter(|l| l.trim_start().starts_with('-')).collect::<Vec<_>>().join("\n");
+    assert_eq!(long_options(&usage), long_options(&options), "README synopsis of `eval` vs its --help");
+}

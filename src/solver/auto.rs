@@ -354,3 +354,38 @@ impl Solver for Chosen {
         self.why.iter().cloned().chain(self.inner.notes()).collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cantilever() -> Setup {
+        crate::scene::load("cantilever", &[]).unwrap()
+    }
+
+    #[test]
+    fn stricter_targets_choose_more_accurate_models_and_the_choice_is_explained() {
+        let setup = cantilever();
+        let loose = choose(&setup, 0.5).unwrap();
+        let strict = choose(&setup, 0.05).unwrap();
+        let exact = choose(&setup, 1e-9).unwrap();
+        assert!(loose.winner().estimate <= 0.5 && strict.winner().estimate <= 0.05);
+        assert!(strict.winner().estimate < loose.winner().estimate, "{:?} vs {:?}", strict.winner(), loose.winner());
+        // Only the full equations meet a target below any reduced model's error.
+        assert_eq!(exact.winner().method, "ds-implicit");
+        // Candidates are estimated cheapest first, up to the winner and no further.
+        assert!(strict.candidates[..strict.chosen].iter().all(|c| c.estimate > 0.05));
+        assert!(strict.candidates[strict.chosen + 1..].iter().all(|c| c.estimate.is_nan()));
+        let mut s = setup.clone();
+        s.scene.solver.accuracy = Some(0.05);
+        let built = registry::build(&s).unwrap();
+        assert_eq!(built.method(), strict.winner().method);
+        assert!(built.notes()[0].starts_with("accuracy 0.05: chose"), "{:?}", built.notes());
+    }
+
+    #[test]
+    fn the_family_follows_the_scene_method() {
+        assert_eq!(Family::of(&cantilever()), Family::Shell);
+        assert_eq!(Family::of(&crate::scene::load("drape", &[]).unwrap()), Family::Cloth);
+    }
+}

@@ -121,7 +121,8 @@ impl Experiment for PaperFig4 {
         let id = CaseId { experiment: "paper-fig4", key: case.to_string() };
         let path = id.artefact(out, "png");
         if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir).map_err(|e| EvalError::Io { path: dir.to_path_buf(), reason: e.to_string() })?;
+            std::fs::create_dir_all(dir)
+                .map_err(|e| EvalError::Io { path: dir.to_path_buf(), reason: e.to_string() })?;
         }
         save_png(&image, path)?;
         Ok(table)
