@@ -163,3 +163,66 @@ fn no_gpu_adapter_and_no_display_are_one_clear_line() {
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("opening the display"), "{err}");
 }
+
+#[test]
+fn render_writes_a_numbered_sequence_of_distinct_frames() {
+    let dir = std::env::temp_dir().join(format!("shellwarp-seq-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (code, _, err) = shellwarp(&[
+        "render",
+        "--scene",
+        "cantilever",
+        "--frames",
+        "20",
+        "--every",
+        "2",
+        "--size",
+        "240x160",
+        "--out-dir",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let mut names: Vec<String> =
+        std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    names.sort();
+    let expected: Vec<String> = (1..=10).map(|i| format!("frame-{i:06}.png")).collect();
+    assert_eq!(names, expected, "ten zero-padded frames and nothing else");
+    let frames: Vec<_> = names.iter().map(|n| image::open(dir.join(n)).unwrap().to_rgba8()).collect();
+    for (i, pair) in frames.windows(2).enumerate() {
+        assert_ne!(pair[0], pair[1], "frames {} and {} are identical: the shell did not move", i + 1, i + 2);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn an_interrupted_sequence_leaves_only_whole_pictures() {
+    let dir = std::env::temp_dir().join(format!("shellwarp-seq-kill-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_shellwarp"))
+        .args(["render", "--scene", "cantilever", "--frames", "100000", "--size", "640x400", "--out-dir"])
+        .arg(&dir)
+        .env("NODEVICE_SELECT", "1") // no re-run of itself in a child that the kill would miss
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    let count = || std::fs::read_dir(&dir).map_or(0, |d| d.count());
+    while count() < 5 && start.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let mut finals = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let name = entry.unwrap().file_name().to_string_lossy().into_owned();
+        if name.starts_with("frame-") && name.ends_with(".png") {
+            image::open(dir.join(&name)).unwrap_or_else(|e| panic!("{name} is not a whole PNG: {e}"));
+            finals += 1;
+        } else {
+            assert!(name.starts_with('.') && name.ends_with(".tmp"), "unexpected file {name}");
+        }
+    }
+    assert!(finals >= 4, "{finals} pictures before the kill");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

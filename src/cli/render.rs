@@ -12,12 +12,19 @@ use super::SceneArgs;
 
 /// Arguments of `shellwarp render`.
 #[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("output").required(true).args(["out", "out_dir"])))]
 pub struct RenderArgs {
     #[command(flatten)]
     scene: SceneArgs,
-    /// Number of solver steps before the picture is taken.
+    /// Number of solver steps before the picture is taken (with --out-dir: steps to simulate).
     #[arg(long, default_value_t = 30)]
     frames: u64,
+    /// With --out-dir: save a picture every K steps.
+    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..), requires = "out_dir")]
+    every: u64,
+    /// Write a numbered PNG sequence into this directory (frame-000001.png, ...) instead of one picture.
+    #[arg(long, value_name = "DIR")]
+    out_dir: Option<PathBuf>,
     /// Image size, WIDTHxHEIGHT (at most the GPU's largest texture side).
     #[arg(long, default_value = "1280x720", value_parser = parse_size)]
     size: (u32, u32),
@@ -26,7 +33,7 @@ pub struct RenderArgs {
     wireframe: bool,
     /// Output PNG file.
     #[arg(long)]
-    out: PathBuf,
+    out: Option<PathBuf>,
 }
 
 /// Parse `WIDTHxHEIGHT`, each side from 1 to `max`.
@@ -50,19 +57,47 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let mut solver = solver::build(&setup).with_context(|| format!("building solver for {}", setup.origin.label))?;
     // Open the GPU before simulating: a missing adapter or a size it cannot draw fails at once.
     let mut headless = Headless::new(args.size.0, args.size.1).context("starting the renderer")?;
+    let view = SceneView::new(&setup);
+    let options = ViewOptions { wireframe: args.wireframe };
+    let mut picture = |solver: &dyn solver::Solver, time: f64, path: &std::path::Path| -> anyhow::Result<()> {
+        let drags: Vec<_> = solver.drags().iter().copied().collect();
+        let frame = view.frame(view.camera(), solver.positions(), time, &drags, options);
+        let image = headless.render(&frame).context("rendering")?;
+        // Written to a temporary file and renamed: an interrupted run leaves no partial PNG under a final
+        // name. The error names the file already.
+        save_png(&image, path).context("saving the picture")
+    };
+    if let Some(dir) = &args.out_dir {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let pictures = args.frames / args.every;
+    let digits = pictures.to_string().len().max(6);
     let mut time = 0.0;
-    for _ in 0..args.frames {
+    for step in 1..=args.frames {
         match solver.step() {
             Ok(stats) => time = stats.sim_time,
-            Err(e) => bail!("{}: simulation diverged before the picture: {e}", setup.origin.label),
+            Err(e) => bail!("{}: simulation diverged at step {step}: {e}", setup.origin.label),
+        }
+        if let Some(dir) = &args.out_dir
+            && step % args.every == 0
+        {
+            picture(solver.as_ref(), time, &dir.join(format!("frame-{:0digits$}.png", step / args.every)))?;
         }
     }
-    let view = SceneView::new(&setup);
-    let drags: Vec<_> = solver.drags().iter().copied().collect();
-    let frame = view.frame(view.camera(), solver.positions(), time, &drags, ViewOptions { wireframe: args.wireframe });
-    let image = headless.render(&frame).context("rendering")?;
-    // The error names the file already.
-    save_png(&image, &args.out).context("saving the picture")?;
-    println!("{}: {} steps of {} → {}", setup.scene.name, args.frames, solver.method(), args.out.display());
+    match (&args.out, &args.out_dir) {
+        (Some(out), _) => {
+            picture(solver.as_ref(), time, out)?;
+            println!("{}: {} steps of {} → {}", setup.scene.name, args.frames, solver.method(), out.display());
+        }
+        (None, Some(dir)) => println!(
+            "{}: {} steps of {}, {pictures} pictures (every {} steps) → {}/frame-*.png",
+            setup.scene.name,
+            args.frames,
+            solver.method(),
+            args.every,
+            dir.display()
+        ),
+        (None, None) => bail!("give --out FILE.png or --out-dir DIR"),
+    }
     Ok(ExitCode::SUCCESS)
 }
