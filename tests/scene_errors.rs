@@ -24,6 +24,11 @@ fn every_validation_check_names_its_key() {
     let sphere = |r: &str, rings: &str, sectors: &str| {
         mesh(&format!("uv-sphere = {{ radius = {r}, rings = {rings}, sectors = {sectors} }}"))
     };
+    let track = |body: &str| {
+        let select = if body.starts_with("select") { "" } else { "select = { indices = [0] }, " };
+        format!("tracks=[{{ {select}{body} }}]")
+    };
+    let joints = |list: &str| format!("skeleton={{ joints = [{list}] }}");
     let cases: Vec<(String, &str, &str)> = vec![
         (grid("[1.0, -0.1]", "[4, 1]"), "mesh.size", "must be positive"),
         (grid("[1.0, 0.1]", "[4, 0]"), "mesh.segments", "at least 1"),
@@ -100,6 +105,40 @@ fn every_validation_check_names_its_key() {
         ("material.mu_k=nan".into(), "material.mu_k", "finite"),
         ("solver.margin=0".into(), "solver.margin", "must be positive"),
         ("solver.accuracy=0".into(), "solver.accuracy", "relative error in (0, 1]"),
+        ("solver.constraint_damping=0".into(), "solver.constraint_damping", "must be positive"),
+        ("placement.copies=0".into(), "placement.copies", "at least 1"),
+        ("placement.copy_offset=[0, nan, 0]".into(), "placement.copy_offset", "finite"),
+        (
+            track("keys = [{ time = 1.0, position = [0, 0, 0] }, { time = 0.5, position = [0, 0, 0] }]"),
+            "tracks[0].keys[1].time",
+            "must come after",
+        ),
+        (track("keys = [{ time = -1.0, position = [0, 0, 0] }]"), "tracks[0].keys[0].time", "must not be negative"),
+        (track("keys = [{ time = 0.0 }]"), "tracks[0].keys[0]", "give a position, a rotation or both"),
+        (
+            track("keys = [{ time = 0.0, position = [0, 0, 0] }, { time = 1.0, rotation = [0, 0, 1] }]"),
+            "tracks[0].keys[1]",
+            "same fields",
+        ),
+        (track("keys = [{ time = 0.0, rotation = [0, inf, 0] }]"), "tracks[0].keys[0].rotation", "finite"),
+        (track(""), "tracks[0]", "exactly one of `keys` or `joint`"),
+        (track("joint = \"knee\""), "tracks[0].joint", "no skeleton joint `knee`"),
+        (
+            track("select = { indices = [] }, keys = [{ time = 0.0, position = [0, 0, 0] }]"),
+            "tracks[0].select.indices",
+            "is empty",
+        ),
+        (
+            joints("{ name = \"a\", offset = [0, 0, 0] }, { name = \"a\", offset = [0, 0, 0] }"),
+            "skeleton.joints[1].name",
+            "used twice",
+        ),
+        (joints("{ name = \"a\", parent = \"b\", offset = [0, 0, 0] }"), "skeleton.joints[0].parent", "no joint `b`"),
+        (
+            joints("{ name = \"a\", offset = [0, 0, 0], keys = [{ time = 0.0, position = [0, 0, 0] }] }"),
+            "skeleton.joints[0].keys[0].position",
+            "only a rotation",
+        ),
         ("solver.accuracy=1.5".into(), "solver.accuracy", "relative error in (0, 1]"),
         ("solver.accuracy=nan".into(), "solver.accuracy", "relative error in (0, 1]"),
         ("solver.method=\"\"".into(), "solver.method", "required unless solver.accuracy"),

@@ -8,6 +8,7 @@ use crate::collision::{Motion, Shape};
 use crate::mesh::generate;
 use crate::render::{Camera, Frame, Marker, MeshDraw};
 use crate::scene::Setup;
+use crate::solver::script::Rig;
 use crate::solver::{Drag, DragId, DragKind};
 
 /// Front (outside) colour of simulated surfaces, linear RGBA.
@@ -21,6 +22,7 @@ const ANCHOR: [f32; 4] = [0.15, 0.15, 0.9, 1.0];
 const POSITION_DRAG: [f32; 4] = [0.95, 0.85, 0.1, 1.0];
 const ORIENTATION_DRAG: [f32; 4] = [0.8, 0.1, 0.8, 1.0];
 const GRID: [f32; 4] = [0.25, 0.27, 0.32, 0.6];
+const BONE: [f32; 4] = [0.05, 0.6, 0.2, 1.0];
 /// Radius of the rotate gizmo, in marker sizes.
 const GIZMO_MARKERS: f32 = 9.0;
 
@@ -69,6 +71,7 @@ pub struct SceneView {
     grid_height: f32,
     grid_extent: f32,
     marker_size: f32,
+    rig: Rig,
 }
 
 /// A position as the renderer's `[f32; 3]`.
@@ -126,6 +129,7 @@ impl SceneView {
             grid_height,
             grid_extent: (2.0 * size) as f32,
             marker_size: (0.012 * size) as f32,
+            rig: Rig::new(&setup.scene.skeleton),
         }
     }
 
@@ -165,6 +169,10 @@ impl SceneView {
         frame.meshes.push(surface);
         for &a in &self.anchors {
             frame.markers.push(Marker { position: f32x3(positions[a]), size: self.marker_size, color: ANCHOR });
+        }
+        for (a, b) in self.rig.bones(time) {
+            frame.line(f32x3(a), f32x3(b), BONE);
+            frame.markers.push(Marker { position: f32x3(b), size: self.marker_size, color: BONE });
         }
         for (_, d) in drags {
             let p = positions.get(d.vertex).copied().unwrap_or_default();

@@ -12,6 +12,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("sweep", include_str!("../../assets/scenes/sweep.toml")),
     ("table", include_str!("../../assets/scenes/table.toml")),
     ("balloon", include_str!("../../assets/scenes/balloon.toml")),
+    ("beams-steered", include_str!("../../assets/scenes/beams-steered.toml")),
 ];
 
 /// Names of the built-in scenes, in order.

@@ -6,6 +6,7 @@ mod builtin;
 mod error;
 mod overrides;
 mod schema;
+mod script;
 mod setup;
 mod validate;
 
@@ -14,6 +15,7 @@ pub use error::SceneError;
 pub use schema::{
     Aabb, CameraSpec, Collider, Load, Material, MeshSource, Motion, Placement, Scene, Selection, SolverSettings,
 };
+pub use script::{Joint, Key, Skeleton, Track};
 pub use setup::Setup;
 
 use std::path::{Path, PathBuf};

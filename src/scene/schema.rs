@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::script::{Skeleton, Track};
+
 /// A complete scene: what to simulate, with which method, seen from where.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -32,6 +34,12 @@ pub struct Scene {
     /// Static or scripted rigid bodies the mesh collides with.
     #[serde(default)]
     pub colliders: Vec<Collider>,
+    /// Constraint tracks: keyframed or joint-following targets on vertex selections.
+    #[serde(default)]
+    pub tracks: Vec<Track>,
+    /// A skeleton whose joints tracks can follow (none by default).
+    #[serde(default)]
+    pub skeleton: Skeleton,
     /// Method and its numerical settings.
     pub solver: SolverSettings,
     /// Initial view.
@@ -103,7 +111,8 @@ pub enum MeshSource {
     },
 }
 
-/// Scale, rotation (Euler XYZ, degrees) then translation applied to the generated mesh.
+/// Scale, rotation (Euler XYZ, degrees) then translation applied to the generated mesh, and how many
+/// shifted copies of it the scene holds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Placement {
@@ -113,11 +122,16 @@ pub struct Placement {
     pub rotate_deg: [f64; 3],
     /// Translation, metres.
     pub translate: [f64; 3],
+    /// Copies of the placed mesh in one scene (separate connected components), each shifted by
+    /// `copy_offset` from the previous one; vertex `i` of copy `k` is vertex `k n + i`.
+    pub copies: usize,
+    /// Shift between neighbouring copies, metres.
+    pub copy_offset: [f64; 3],
 }
 
 impl Default for Placement {
     fn default() -> Self {
-        Self { scale: 1.0, rotate_deg: [0.0; 3], translate: [0.0; 3] }
+        Self { scale: 1.0, rotate_deg: [0.0; 3], translate: [0.0; 3], copies: 1, copy_offset: [0.0; 3] }
     }
 }
 
@@ -293,6 +307,10 @@ pub struct SolverSettings {
     /// Contact margin for collisions with colliders, metres (the method's default if absent).
     #[serde(default)]
     pub margin: Option<f64>,
+    /// Modal methods: relative compliance of drag constraints (damped least squares; the method's
+    /// default 1e-2 if absent). Smaller follows drags and tracks more tightly.
+    #[serde(default)]
+    pub constraint_damping: Option<f64>,
 }
 
 fn default_modes() -> usize {

@@ -22,6 +22,8 @@ pub struct Setup {
     pub loads: Vec<DVec3>,
     /// The colliders, ready for contact queries (in the scene's order).
     pub bodies: Vec<Body>,
+    /// The vertices of each constraint track (in the scene's order).
+    pub tracks: Vec<Vec<usize>>,
 }
 
 impl Setup {
@@ -47,7 +49,11 @@ impl Setup {
         for (i, c) in scene.colliders.iter().enumerate() {
             bodies.push(body(c, &origin).map_err(|reason| invalid(format!("colliders[{i}]"), reason))?);
         }
-        Ok(Self { scene, origin, mesh, anchors, loads, bodies })
+        let mut tracks = Vec::with_capacity(scene.tracks.len());
+        for (i, t) in scene.tracks.iter().enumerate() {
+            tracks.push(select(&mesh, &t.select).map_err(|r| invalid(format!("tracks[{i}].select"), r))?);
+        }
+        Ok(Self { scene, origin, mesh, anchors, loads, bodies, tracks })
     }
 
     /// Lumped vertex masses: density × one third of the area of each incident triangle, kg.
@@ -117,7 +123,15 @@ fn place(mesh: &TriMesh, p: &Placement) -> Result<TriMesh, MeshError> {
     let [rx, ry, rz] = p.rotate_deg.map(f64::to_radians);
     let q = DQuat::from_euler(EulerRot::XYZ, rx, ry, rz);
     let t = DVec3::from(p.translate);
-    mesh.with_positions(mesh.positions().iter().map(|&x| q * (x * p.scale) + t).collect())
+    let placed: Vec<DVec3> = mesh.positions().iter().map(|&x| q * (x * p.scale) + t).collect();
+    if p.copies <= 1 {
+        return mesh.with_positions(placed);
+    }
+    let n = placed.len();
+    let shift = DVec3::from(p.copy_offset);
+    let positions = (0..p.copies).flat_map(|k| placed.iter().map(move |&x| x + shift * k as f64)).collect();
+    let triangles = (0..p.copies).flat_map(|k| mesh.triangles().iter().map(move |t| t.map(|i| i + k * n))).collect();
+    TriMesh::new(positions, triangles)
 }
 
 /// The vertices a selection picks, or why it picks none.

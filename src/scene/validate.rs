@@ -1,6 +1,7 @@
 //! Value checks that serde's typing cannot express. Each failure names its dotted key.
 
 use super::schema::{Collider, MeshSource, Scene, Selection};
+use super::script::{Key, Skeleton, Track};
 
 /// A failed check: the dotted key and the reason.
 pub(crate) type Invalid = (String, String);
@@ -96,6 +97,9 @@ impl Scene {
         positive("placement.scale", self.placement.scale)?;
         vec3("placement.rotate_deg", self.placement.rotate_deg)?;
         vec3("placement.translate", self.placement.translate)?;
+        at_least("placement.copies", self.placement.copies, 1)?;
+        vec3("placement.copy_offset", self.placement.copy_offset)?;
+        script(&self.tracks, &self.skeleton)?;
         let m = &self.material;
         positive("material.density", m.density)?;
         let coefficients = [
@@ -165,6 +169,9 @@ impl Scene {
         if let Some(m) = s.margin {
             positive("solver.margin", m)?;
         }
+        if let Some(d) = s.constraint_damping {
+            positive("solver.constraint_damping", d)?;
+        }
         match s.accuracy {
             Some(a) if !(a > 0.0 && a <= 1.0) => {
                 return Err(("solver.accuracy".into(), format!("must be a relative error in (0, 1], got {a}")));
@@ -181,4 +188,67 @@ impl Scene {
         }
         Ok(())
     }
+}
+
+/// Keys in strictly increasing, non-negative, finite time, each giving the same fields as the first
+/// (a position, a rotation or both; only a rotation when `rotation_only`).
+fn keys(key: &str, keys: &[Key], rotation_only: bool) -> Result<(), Invalid> {
+    let mut last = f64::NEG_INFINITY;
+    for (i, k) in keys.iter().enumerate() {
+        let key = format!("{key}[{i}]");
+        non_negative(&format!("{key}.time"), k.time)?;
+        if k.time <= last {
+            return Err((format!("{key}.time"), format!("must come after the previous key's {last} s")));
+        }
+        last = k.time;
+        if let Some(p) = k.position {
+            vec3(&format!("{key}.position"), p)?;
+        }
+        if let Some(r) = k.rotation {
+            vec3(&format!("{key}.rotation"), r)?;
+        }
+        if rotation_only && k.position.is_some() {
+            return Err((format!("{key}.position"), "a joint key gives only a rotation".into()));
+        }
+        if k.position.is_none() && k.rotation.is_none() {
+            return Err((key, "give a position, a rotation or both".into()));
+        }
+        let first = &keys[0];
+        if (k.position.is_some(), k.rotation.is_some()) != (first.position.is_some(), first.rotation.is_some()) {
+            return Err((key, "every key of a track gives the same fields as its first".into()));
+        }
+    }
+    Ok(())
+}
+
+fn script(tracks: &[Track], skeleton: &Skeleton) -> Result<(), Invalid> {
+    let mut names: Vec<&str> = Vec::new();
+    for (i, j) in skeleton.joints.iter().enumerate() {
+        let key = format!("skeleton.joints[{i}]");
+        if j.name.is_empty() || names.contains(&j.name.as_str()) {
+            return Err((format!("{key}.name"), format!("`{}` is empty or used twice", j.name)));
+        }
+        if let Some(p) = &j.parent
+            && !names.contains(&p.as_str())
+        {
+            return Err((format!("{key}.parent"), format!("no joint `{p}` before this one")));
+        }
+        vec3(&format!("{key}.offset"), j.offset)?;
+        keys(&format!("{key}.keys"), &j.keys, true)?;
+        names.push(&j.name);
+    }
+    for (i, t) in tracks.iter().enumerate() {
+        let key = format!("tracks[{i}]");
+        selection(&format!("{key}.select"), &t.select)?;
+        if let Some(p) = t.pivot {
+            vec3(&format!("{key}.pivot"), p)?;
+        }
+        match (&t.joint, t.keys.is_empty()) {
+            (Some(j), true) if names.contains(&j.as_str()) => {}
+            (Some(j), true) => return Err((format!("{key}.joint"), format!("no skeleton joint `{j}`"))),
+            (None, false) => keys(&format!("{key}.keys"), &t.keys, false)?,
+            _ => return Err((key, "give exactly one of `keys` or `joint`".into())),
+        }
+    }
+    Ok(())
 }

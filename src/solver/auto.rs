@@ -201,12 +201,13 @@ pub fn choose(setup: &Setup, accuracy: f64) -> Result<Choice, SolverError> {
     Ok(Choice { accuracy, family, candidates, chosen })
 }
 
-/// Choose and build: the solver of the chosen candidate, whose notes say why it was chosen.
-pub fn build(setup: &Setup) -> Result<Box<dyn Solver>, SolverError> {
+/// Choose for the scene's `solver.accuracy` and build the winner: the solver and why it was chosen.
+pub fn build(setup: &Setup) -> Result<(Box<dyn Solver>, Vec<String>), SolverError> {
     let accuracy = setup.scene.solver.accuracy.unwrap_or(f64::NAN);
     let choice = choose(setup, accuracy)?;
-    let inner = registry::build(&choice.winner().apply(setup))?;
-    Ok(Box::new(Chosen { inner, why: choice.explain() }))
+    let mut winner = choice.winner().apply(setup);
+    winner.scene.tracks.clear();
+    Ok((registry::build(&winner)?, choice.explain()))
 }
 
 fn shell_candidates(setup: &Setup) -> Vec<Candidate> {
@@ -305,54 +306,6 @@ pub fn lowest_frequency(setup: &Setup) -> Result<f64, SolverError> {
         modes: 1,
     };
     Ok(analyse(&problem, &|_| {})?.basis.eigenvalues[0].sqrt())
-}
-
-/// A chosen solver: the winner, with the reasons for choosing it among its notes.
-struct Chosen {
-    inner: Box<dyn Solver>,
-    why: Vec<String>,
-}
-
-impl Solver for Chosen {
-    fn method(&self) -> &'static str {
-        self.inner.method()
-    }
-    fn time_step(&self) -> f64 {
-        self.inner.time_step()
-    }
-    fn step(&mut self) -> Result<super::StepStats, SolverError> {
-        self.inner.step()
-    }
-    fn positions(&self) -> &[DVec3] {
-        self.inner.positions()
-    }
-    fn reset(&mut self) {
-        self.inner.reset()
-    }
-    fn params(&self) -> Vec<super::ParamValue> {
-        self.inner.params()
-    }
-    fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
-        self.inner.set_param(name, value)
-    }
-    fn drags(&self) -> &super::DragSet {
-        self.inner.drags()
-    }
-    fn drags_mut(&mut self) -> &mut super::DragSet {
-        self.inner.drags_mut()
-    }
-    fn progress(&self) -> Option<super::Progress> {
-        self.inner.progress()
-    }
-    fn poll(&mut self) -> Result<(), SolverError> {
-        self.inner.poll()
-    }
-    fn info(&self) -> Vec<(&'static str, f64)> {
-        self.inner.info()
-    }
-    fn notes(&self) -> Vec<String> {
-        self.why.iter().cloned().chain(self.inner.notes()).collect()
-    }
 }
 
 #[cfg(test)]

@@ -17,6 +17,7 @@ mod params;
 pub mod registry;
 mod rigid;
 pub mod run;
+pub mod script;
 mod shell_model;
 mod stability;
 mod stats;

@@ -1,5 +1,6 @@
 //! The list of methods: a name, a one-line summary and a constructor. Adding a method is one line here.
 
+use super::script::{Script, Scripted};
 use super::{Solver, SolverError, cloth, ds_explicit, ds_implicit, ds_static, modal, rigid};
 use crate::scene::Setup;
 
@@ -35,10 +36,16 @@ pub fn find(name: &str) -> Result<&'static Method, SolverError> {
 }
 
 /// Build the solver the scene's `solver.method` names, or, when the scene gives `solver.accuracy`,
-/// the cheapest one that meets it ([`super::auto`]).
+/// the cheapest one that meets it ([`super::auto`]); driven by the scene's tracks, if any
+/// ([`super::script`]).
 pub fn build(setup: &Setup) -> Result<Box<dyn Solver>, SolverError> {
-    if setup.scene.solver.accuracy.is_some() {
-        return super::auto::build(setup);
+    let (inner, why) = match setup.scene.solver.accuracy {
+        Some(_) => super::auto::build(setup)?,
+        None => ((find(&setup.scene.solver.method)?.build)(setup)?, Vec::new()),
+    };
+    let script = Script::new(setup);
+    if script.is_empty() && why.is_empty() {
+        return Ok(inner);
     }
-    (find(&setup.scene.solver.method)?.build)(setup)
+    Ok(Box::new(Scripted::new(inner, script, why)?))
 }

@@ -167,7 +167,7 @@ impl ModalSolver {
             step: PARAMS[8].check(s.step.unwrap_or(1.0 / 30.0))?,
             alpha: s.rayleigh_alpha,
             beta: s.rayleigh_beta,
-            constraint_damping: 1e-2,
+            constraint_damping: PARAMS[9].check(s.constraint_damping.unwrap_or(1e-2))?,
         };
         let mut solver = Self {
             method,

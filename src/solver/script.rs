@@ -1,0 +1,404 @@
+//! Scripted constraints: a scene's tracks (and the skeleton they may follow) drive the same drag
+//! constraints the mouse makes, through [`DragSet`], so every method that takes drags takes tracks.
+//!
+//! A track moves its vertices as one rigid frame: at time `t` the frame has rotation `R` about the
+//! pivot `c` and translation `d`, and vertex `i` is asked to be at `c + d + R (X_i − c)` (position
+//! drags, when the track has positions or follows a joint) and to have turned by `R` (orientation
+//! drags, when it has rotations or follows a joint). Positions interpolate linearly between keys,
+//! rotations by slerp; a looping track starts over after its last key. Rotation targets are given as
+//! rotation vectors chosen continuous in time (`θ` grows past π instead of flipping to `−(2π − θ)`),
+//! so a tip twisted by 360° over two seconds is asked to turn smoothly all the way.
+//!
+//! A joint-following track uses the joint's world frame relative to its frame at time 0 (the pose
+//! the mesh was modelled in): `F(t) F(0)⁻¹`.
+
+use glam::{DQuat, DVec3};
+
+use super::{Drag, DragId, DragKind, Solver, SolverError, StepStats};
+use crate::scene::{Key, Setup, Skeleton};
+
+/// Interpolate keys at `t` (clamped to the keys' span, or wrapped when `looping`): the translation
+/// and the rotation the keys give (`None` where they give none).
+pub fn sample(keys: &[Key], t: f64, looping: bool) -> (Option<DVec3>, Option<DQuat>) {
+    let (Some(first), Some(last)) = (keys.first(), keys.last()) else { return (None, None) };
+    let span = last.time - first.time;
+    let t = if looping && span > 0.0 && t > last.time { first.time + (t - first.time).rem_euclid(span) } else { t };
+    let i = keys.partition_point(|k| k.time <= t);
+    let (a, b, s) = match i {
+        0 => (first, first, 0.0),
+        i if i >= keys.len() => (last, last, 0.0),
+        i => {
+            let (a, b) = (&keys[i - 1], &keys[i]);
+            (a, b, (t - a.time) / (b.time - a.time))
+        }
+    };
+    let position = a.position.zip(b.position).map(|(p, q)| DVec3::from(p).lerp(DVec3::from(q), s));
+    let rotation = a.rotation.zip(b.rotation).map(|(p, q)| {
+        let (p, q) = (DQuat::from_scaled_axis(DVec3::from(p)), DQuat::from_scaled_axis(DVec3::from(q)));
+        p.slerp(q, s)
+    });
+    (position, rotation)
+}
+
+/// The rotation vector of `q` closest to `previous` among its equivalents `â (θ + 2πk)`, so that a
+/// sequence of targets turns continuously through and past π.
+pub fn unwrap_rotation(q: DQuat, previous: DVec3) -> DVec3 {
+    let w = q.to_scaled_axis();
+    let angle = w.length();
+    let axis = if angle > 1e-12 {
+        w / angle
+    } else if previous.length() > 1e-12 {
+        previous.normalize()
+    } else {
+        DVec3::X
+    };
+    (-3..=3)
+        .map(|k| axis * (angle + std::f64::consts::TAU * f64::from(k)))
+        .min_by(|a, b| (*a - previous).length_squared().total_cmp(&(*b - previous).length_squared()))
+        .unwrap_or(w)
+}
+
+/// A skeleton ready for forward kinematics.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rig {
+    joints: Vec<(Option<usize>, DVec3, Vec<Key>)>,
+    names: Vec<String>,
+    looping: bool,
+}
+
+impl Rig {
+    /// From a validated skeleton (parents come before their children).
+    pub fn new(skeleton: &Skeleton) -> Self {
+        let names: Vec<String> = skeleton.joints.iter().map(|j| j.name.clone()).collect();
+        let joints = skeleton
+            .joints
+            .iter()
+            .map(|j| {
+                let parent = j.parent.as_ref().and_then(|p| names.iter().position(|n| n == p));
+                (parent, DVec3::from(j.offset), j.keys.clone())
+            })
+            .collect();
+        Self { joints, names, looping: skeleton.looping }
+    }
+
+    /// Index of a joint by name.
+    pub fn index(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
+    }
+
+    /// Whether there are no joints.
+    pub fn is_empty(&self) -> bool {
+        self.joints.is_empty()
+    }
+
+    /// World frame (rotation, origin) of every joint at time `t`.
+    pub fn frames(&self, t: f64) -> Vec<(DQuat, DVec3)> {
+        let mut frames: Vec<(DQuat, DVec3)> = Vec::with_capacity(self.joints.len());
+        for (parent, offset, keys) in &self.joints {
+            let own = sample(keys, t, self.looping).1.unwrap_or(DQuat::IDENTITY);
+            let frame = match parent {
+                Some(p) => {
+                    let (r, o) = frames[*p];
+                    (r * own, o + r * *offset)
+                }
+                None => (own, *offset),
+            };
+            frames.push(frame);
+        }
+        frames
+    }
+
+    /// Bone segments (parent origin, child origin) at time `t`, for drawing.
+    pub fn bones(&self, t: f64) -> Vec<(DVec3, DVec3)> {
+        let frames = self.frames(t);
+        self.joints.iter().enumerate().filter_map(|(i, (p, _, _))| p.map(|p| (frames[p].1, frames[i].1))).collect()
+    }
+}
+
+/// Where a track's frame comes from.
+#[derive(Debug, Clone)]
+enum Source {
+    Keys(Vec<Key>),
+    Joint(usize),
+}
+
+/// A track resolved against its mesh, with the handles of the drags it drives.
+#[derive(Debug, Clone)]
+struct Driven {
+    vertices: Vec<usize>,
+    pivot: DVec3,
+    source: Source,
+    looping: bool,
+    positions: bool,
+    rotations: bool,
+    position_drags: Vec<DragId>,
+    orientation_drags: Vec<DragId>,
+    /// The last rotation target, for continuity.
+    previous: DVec3,
+}
+
+/// The scene's tracks and skeleton, driving a solver's drags.
+#[derive(Debug, Clone)]
+pub struct Script {
+    rest: Vec<DVec3>,
+    rig: Rig,
+    tracks: Vec<Driven>,
+}
+
+impl Script {
+    /// Resolve the scene's tracks (none: an empty script).
+    pub fn new(setup: &Setup) -> Self {
+        let rest = setup.mesh.positions().to_vec();
+        let rig = Rig::new(&setup.scene.skeleton);
+        let tracks = setup
+            .scene
+            .tracks
+            .iter()
+            .zip(&setup.tracks)
+            .map(|(t, vertices)| {
+                let centroid = vertices.iter().map(|&v| rest[v]).sum::<DVec3>() / vertices.len().max(1) as f64;
+                let source = match t.joint.as_deref().and_then(|j| rig.index(j)) {
+                    Some(j) => Source::Joint(j),
+                    None => Source::Keys(t.keys.clone()),
+                };
+                let (positions, rotations) = match &source {
+                    Source::Joint(_) => (true, true),
+                    Source::Keys(k) => (
+                        k.first().is_some_and(|k| k.position.is_some()),
+                        k.first().is_some_and(|k| k.rotation.is_some()),
+                    ),
+                };
+                Driven {
+                    vertices: vertices.clone(),
+                    pivot: t.pivot.map_or(centroid, DVec3::from),
+                    source,
+                    looping: t.looping,
+                    positions,
+                    rotations,
+                    position_drags: Vec::new(),
+                    orientation_drags: Vec::new(),
+                    previous: DVec3::ZERO,
+                }
+            })
+            .collect();
+        Self { rest, rig, tracks }
+    }
+
+    /// Whether there is nothing to drive.
+    pub fn is_empty(&self) -> bool {
+        self.tracks.is_empty()
+    }
+
+    /// The skeleton.
+    pub fn rig(&self) -> &Rig {
+        &self.rig
+    }
+
+    /// Track `k`'s frame at `t`: (pivot, translation, rotation).
+    fn frame(&self, k: usize, t: f64) -> (DVec3, DVec3, DQuat) {
+        let track = &self.tracks[k];
+        match &track.source {
+            Source::Keys(keys) => {
+                let (d, r) = sample(keys, t, track.looping);
+                (track.pivot, d.unwrap_or(DVec3::ZERO), r.unwrap_or(DQuat::IDENTITY))
+            }
+            Source::Joint(j) => {
+                let (now, start) = (self.rig.frames(t)[*j], self.rig.frames(0.0)[*j]);
+                (start.1, now.1 - start.1, now.0 * start.0.inverse())
+            }
+        }
+    }
+
+    /// The targets of every track at `t`: per track, the position target of each vertex (if the track
+    /// has positions) and its rotation vector (if it has rotations).
+    pub fn targets(&mut self, t: f64) -> Vec<(Vec<DVec3>, Option<DVec3>)> {
+        (0..self.tracks.len())
+            .map(|k| {
+                let (c, d, r) = self.frame(k, t);
+                let track = &self.tracks[k];
+                let positions = if track.positions {
+                    track.vertices.iter().map(|&v| c + d + r * (self.rest[v] - c)).collect()
+                } else {
+                    Vec::new()
+                };
+                let rotation = track.rotations.then(|| unwrap_rotation(r, track.previous));
+                if let Some(w) = rotation {
+                    self.tracks[k].previous = w;
+                }
+                (positions, rotation)
+            })
+            .collect()
+    }
+
+    /// Set the drags of every track to its targets at `t`, adding them the first time (or again if
+    /// they were removed, e.g. by the user). A method without orientation drags refuses a track
+    /// with rotations: the error names the track.
+    pub fn drive(&mut self, solver: &mut dyn Solver, t: f64) -> Result<(), SolverError> {
+        let targets = self.targets(t);
+        let method = solver.method();
+        for (k, (positions, rotation)) in targets.into_iter().enumerate() {
+            let track = &mut self.tracks[k];
+            let named = |e: SolverError| match e {
+                SolverError::BadDrag(reason) => SolverError::BadDrag(format!(
+                    "tracks[{k}]: {reason} (method `{method}`; give the track positions only)"
+                )),
+                e => e,
+            };
+            let drags = solver.drags_mut();
+            for (i, &v) in track.vertices.iter().enumerate() {
+                if let Some(&p) = positions.get(i) {
+                    set(drags, &mut track.position_drags, i, Drag { vertex: v, kind: DragKind::Position(p) })
+                        .map_err(named)?;
+                }
+                if let Some(w) = rotation {
+                    set(drags, &mut track.orientation_drags, i, Drag { vertex: v, kind: DragKind::Orientation(w) })
+                        .map_err(named)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Forget the rotation history (after a reset the targets start again from time 0).
+    pub fn rewind(&mut self) {
+        self.tracks.iter_mut().for_each(|t| t.previous = DVec3::ZERO);
+    }
+}
+
+/// Retarget drag `i` of `ids`, or add it (again) if it does not exist.
+fn set(drags: &mut super::DragSet, ids: &mut Vec<DragId>, i: usize, drag: Drag) -> Result<(), SolverError> {
+    if let Some(&id) = ids.get(i)
+        && drags.retarget(id, drag.kind).is_ok()
+    {
+        return Ok(());
+    }
+    let id = drags.add(drag)?;
+    if i < ids.len() {
+        ids[i] = id;
+    } else {
+        ids.push(id);
+    }
+    Ok(())
+}
+
+/// A solver driven by a script (before each step the tracks' drags are set to their targets at the
+/// end of the step), with notes on how it was chosen ([`super::auto`]) ahead of its own.
+pub struct Scripted {
+    inner: Box<dyn Solver>,
+    script: Script,
+    time: f64,
+    why: Vec<String>,
+}
+
+impl Scripted {
+    /// Wrap `inner`, placing the drags at their time-0 targets (fails if the method refuses a track).
+    pub fn new(mut inner: Box<dyn Solver>, mut script: Script, why: Vec<String>) -> Result<Self, SolverError> {
+        script.drive(inner.as_mut(), 0.0)?;
+        Ok(Self { inner, script, time: 0.0, why })
+    }
+}
+
+impl Solver for Scripted {
+    fn method(&self) -> &'static str {
+        self.inner.method()
+    }
+    fn time_step(&self) -> f64 {
+        self.inner.time_step()
+    }
+    fn step(&mut self) -> Result<StepStats, SolverError> {
+        let h = self.inner.time_step();
+        self.script.drive(self.inner.as_mut(), self.time + h)?;
+        let stats = self.inner.step()?;
+        self.time = stats.sim_time;
+        Ok(stats)
+    }
+    fn positions(&self) -> &[DVec3] {
+        self.inner.positions()
+    }
+    fn reset(&mut self) {
+        self.inner.reset();
+        self.time = 0.0;
+        self.script.rewind();
+        // The drags were accepted before, so they are again.
+        let _ = self.script.drive(self.inner.as_mut(), 0.0);
+    }
+    fn params(&self) -> Vec<super::ParamValue> {
+        self.inner.params()
+    }
+    fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
+        self.inner.set_param(name, value)
+    }
+    fn drags(&self) -> &super::DragSet {
+        self.inner.drags()
+    }
+    fn drags_mut(&mut self) -> &mut super::DragSet {
+        self.inner.drags_mut()
+    }
+    fn progress(&self) -> Option<super::Progress> {
+        self.inner.progress()
+    }
+    fn poll(&mut self) -> Result<(), SolverError> {
+        self.inner.poll()
+    }
+    fn info(&self) -> Vec<(&'static str, f64)> {
+        self.inner.info()
+    }
+    fn notes(&self) -> Vec<String> {
+        self.why.iter().cloned().chain(self.inner.notes()).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn key(time: f64, position: Option<[f64; 3]>, rotation: Option<[f64; 3]>) -> Key {
+        Key { time, position, rotation }
+    }
+
+    #[test]
+    fn keys_interpolate_linearly_and_by_slerp_clamp_and_loop() {
+        let keys = [key(0.0, Some([0.0; 3]), Some([0.0; 3])), key(2.0, Some([2.0, 0.0, 0.0]), Some([0.0, 0.0, 1.0]))];
+        let (p, r) = sample(&keys, 0.5, false);
+        assert!((p.unwrap() - DVec3::new(0.5, 0.0, 0.0)).length() < 1e-15);
+        assert!((r.unwrap().to_scaled_axis() - DVec3::new(0.0, 0.0, 0.25)).length() < 1e-12, "slerp about one axis");
+        assert_eq!(sample(&keys, 5.0, false).0, Some(DVec3::new(2.0, 0.0, 0.0)), "held after the last key");
+        let looped = sample(&keys, 2.5, true).0.unwrap();
+        assert!((looped - DVec3::new(0.5, 0.0, 0.0)).length() < 1e-12, "wraps to t = 0.5");
+        assert_eq!(sample(&keys, 1.0, false).0.map(|p| p.x), Some(1.0));
+    }
+
+    #[test]
+    fn rotation_targets_continue_past_pi_instead_of_flipping() {
+        let mut previous = DVec3::ZERO;
+        for k in 1..=72 {
+            let angle = f64::from(k) * 5f64.to_radians();
+            let w = unwrap_rotation(DQuat::from_rotation_x(angle), previous);
+            assert!((w - DVec3::X * angle).length() < 1e-9, "{angle}: {w}");
+            previous = w;
+        }
+    }
+
+    #[test]
+    fn forward_kinematics_composes_parent_frames() {
+        use crate::scene::Joint;
+        let quarter = [0.0, 0.0, std::f64::consts::FRAC_PI_2];
+        let skeleton = Skeleton {
+            joints: vec![
+                Joint {
+                    name: "root".into(),
+                    parent: None,
+                    offset: [0.0, 1.0, 0.0],
+                    keys: vec![key(0.0, None, Some([0.0; 3])), key(1.0, None, Some(quarter))],
+                },
+                Joint { name: "tip".into(), parent: Some("root".into()), offset: [1.0, 0.0, 0.0], keys: vec![] },
+            ],
+            looping: false,
+        };
+        let rig = Rig::new(&skeleton);
+        assert!((rig.frames(0.0)[1].1 - DVec3::new(1.0, 1.0, 0.0)).length() < 1e-12);
+        // A quarter turn of the root about z carries the child from +x to +y of it.
+        assert!((rig.frames(1.0)[1].1 - DVec3::new(0.0, 2.0, 0.0)).length() < 1e-12);
+        assert_eq!(rig.bones(1.0).len(), 1);
+    }
+}
