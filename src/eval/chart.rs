@@ -416,6 +416,9 @@ fn draw_png(
         root.present().map_err(|e| fail(e.to_string()))?;
     }
     let image = RgbImage::from_raw(w, h, buffer).ok_or_else(|| fail("buffer size".into()))?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| fail(e.to_string()))?;
+    }
     Ok(crate::render::save_png(&image::DynamicImage::ImageRgb8(image).to_rgba8(), path)?)
 }
 
