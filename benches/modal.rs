@@ -21,6 +21,7 @@ fn precompute(c: &mut Criterion) {
         masses: &masses,
         stiffness: ShellStiffness::from(m),
         modes: 4,
+        keep_rigid: false,
     };
     let mut group = c.benchmark_group("creature precompute");
     group.sample_size(10).measurement_time(Duration::from_secs(12));

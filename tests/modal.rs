@@ -20,7 +20,7 @@ fn short(values: &[f64]) -> Vec<String> {
 fn analysis(s: &Setup, modes: usize) -> ModalAnalysis {
     let masses = s.masses();
     let stiffness = ShellStiffness::from(&s.scene.material);
-    let p = ModalProblem { mesh: &s.mesh, anchors: &s.anchors, masses: &masses, stiffness, modes };
+    let p = ModalProblem { mesh: &s.mesh, anchors: &s.anchors, masses: &masses, stiffness, modes, keep_rigid: false };
     analyse(&p, &|_| {}).unwrap()
 }
 

@@ -128,7 +128,14 @@ fn cantilever_dynamics(modes: usize, overrides: &[&str]) -> (ModalDynamics, Vec<
     let setup = scene::load("cantilever", &overrides.iter().map(|o| o.to_string()).collect::<Vec<_>>()).unwrap();
     let masses = setup.masses();
     let stiffness = ShellStiffness::from(&setup.scene.material);
-    let p = ModalProblem { mesh: &setup.mesh, anchors: &setup.anchors, masses: &masses, stiffness, modes };
+    let p = ModalProblem {
+        mesh: &setup.mesh,
+        anchors: &setup.anchors,
+        masses: &masses,
+        stiffness,
+        modes,
+        keep_rigid: false,
+    };
     let basis = analyse(&p, &|_| {}).unwrap().basis;
     let dynamics = ModalDynamics::new(basis, setup.mesh.positions().to_vec(), Vec::new(), true);
     (dynamics, masses, setup)

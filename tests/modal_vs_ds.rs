@@ -109,6 +109,7 @@ fn closed_form_area_change_matches_its_derivation() {
         masses: &masses,
         stiffness: ShellStiffness::from(m),
         modes: 8,
+        keep_rigid: false,
     };
     let a = analyse(&p, &|_| {}).unwrap();
     let b = &a.basis;

@@ -25,6 +25,8 @@ const GRID: [f32; 4] = [0.25, 0.27, 0.32, 0.6];
 const BONE: [f32; 4] = [0.05, 0.6, 0.2, 1.0];
 /// Radius of the rotate gizmo, in marker sizes.
 const GIZMO_MARKERS: f32 = 9.0;
+/// Rotate gizmos are drawn when there are at most this many orientation drags.
+const MAX_GIZMOS: usize = 4;
 
 /// Colliders are drawn this far inside their true surface (m), so that cloth resting on them
 /// within the contact margin does not flicker through them.
@@ -174,6 +176,7 @@ impl SceneView {
             frame.line(f32x3(a), f32x3(b), BONE);
             frame.markers.push(Marker { position: f32x3(b), size: self.marker_size, color: BONE });
         }
+        let orientations = drags.iter().filter(|(_, d)| matches!(d.kind, DragKind::Orientation(_))).count();
         for (_, d) in drags {
             let p = positions.get(d.vertex).copied().unwrap_or_default();
             match d.kind {
@@ -191,7 +194,10 @@ impl SceneView {
                         size: 2.0 * self.marker_size,
                         color: ORIENTATION_DRAG,
                     });
-                    gizmo::rotate_gizmo(&mut frame, p, rotation, f64::from(GIZMO_MARKERS * self.marker_size));
+                    // A few drags (the mouse's) show their rotation; many (a scripted track's ring) only mark.
+                    if orientations <= MAX_GIZMOS {
+                        gizmo::rotate_gizmo(&mut frame, p, rotation, f64::from(GIZMO_MARKERS * self.marker_size));
+                    }
                 }
             }
         }

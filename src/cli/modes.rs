@@ -52,6 +52,7 @@ pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
         masses: &masses,
         stiffness: ShellStiffness::from(m),
         modes: args.modes.map_or(setup.scene.solver.modes, |m| m as usize),
+        keep_rigid: false,
     };
     let bar = indicatif::ProgressBar::new(100).with_message("modal analysis");
     if args.json {

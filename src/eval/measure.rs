@@ -9,9 +9,8 @@ use glam::DVec3;
 pub use crate::solver::run::{Outcome, REST_STEPS, Run, Stop, distance, run, run_driven};
 
 use super::EvalError;
-use crate::energy::ShellStiffness;
 use crate::scene::{self, Setup};
-use crate::solver::modal::compute::{ModalAnalysis, ModalProblem, analyse};
+use crate::solver::modal::compute::{ModalAnalysis, analyse_scene};
 use crate::solver::{self, Solver};
 
 /// A scene with a method and overrides, realised.
@@ -78,15 +77,7 @@ pub fn reference(scene_name: &str, overrides: &[String]) -> Result<Reference, Ev
 
 /// The modal analysis of a shell scene with `modes` modes, computed afresh (never from the cache).
 pub fn modal_analysis(setup: &Setup, modes: usize) -> Result<ModalAnalysis, EvalError> {
-    let masses = setup.masses();
-    let problem = ModalProblem {
-        mesh: &setup.mesh,
-        anchors: &setup.anchors,
-        masses: &masses,
-        stiffness: ShellStiffness::from(&setup.scene.material),
-        modes,
-    };
-    analyse(&problem, &|_| {}).map_err(EvalError::solver(format!("modal analysis of {}", setup.scene.name)))
+    analyse_scene(setup, modes).map_err(EvalError::solver(format!("modal analysis of {}", setup.scene.name)))
 }
 
 /// Rayleigh mass damping `α = 2ω₁` that critically damps the lowest mode of a shell scene, so every

@@ -96,6 +96,53 @@ impl TriMesh {
         bounds(&self.positions)
     }
 
+    /// The connected component of every vertex (numbered from 0 in order of their lowest vertex), and
+    /// how many there are. Unreferenced vertices are refused at construction, so every vertex is in one.
+    pub fn components(&self) -> (Vec<usize>, usize) {
+        let n = self.positions.len();
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn root(parent: &mut [usize], mut i: usize) -> usize {
+            while parent[i] != i {
+                parent[i] = parent[parent[i]];
+                i = parent[i];
+            }
+            i
+        }
+        for t in &self.triangles {
+            for k in 1..3 {
+                let (a, b) = (root(&mut parent, t[0]), root(&mut parent, t[k]));
+                parent[a.max(b)] = a.min(b);
+            }
+        }
+        let mut label = vec![usize::MAX; n];
+        let mut count = 0;
+        let component = (0..n)
+            .map(|i| {
+                let r = root(&mut parent, i);
+                if label[r] == usize::MAX {
+                    label[r] = count;
+                    count += 1;
+                }
+                label[r]
+            })
+            .collect();
+        (component, count)
+    }
+
+    /// The mesh of the vertices `keep` (in that order: new vertex `k` is `keep[k]`) and the triangles
+    /// among them.
+    pub fn submesh(&self, keep: &[usize]) -> Result<Self, MeshError> {
+        let mut index = vec![usize::MAX; self.positions.len()];
+        keep.iter().enumerate().for_each(|(k, &v)| index[v] = k);
+        let triangles = self
+            .triangles
+            .iter()
+            .filter(|t| t.iter().all(|&v| index[v] != usize::MAX))
+            .map(|t| t.map(|v| index[v]))
+            .collect();
+        Self::new(keep.iter().map(|&v| self.positions[v]).collect(), triangles)
+    }
+
     /// The same connectivity with new positions (which must be finite and as many as before).
     pub fn with_positions(&self, positions: Vec<DVec3>) -> Result<Self, MeshError> {
         if positions.len() != self.positions.len() {
@@ -198,5 +245,28 @@ mod tests {
         assert_eq!(moved.topology(), m.topology());
         assert!(matches!(m.transformed(|p| p * DVec3::new(1.0, 0.0, 1.0)), Err(MeshError::DegenerateTriangle { .. })));
         assert_eq!(m.transformed(|_| DVec3::NAN), Err(MeshError::NonFinite { vertex: 0 }));
+    }
+}
+
+#[cfg(test)]
+mod component_tests {
+    use super::*;
+
+    #[test]
+    fn copies_are_separate_components_and_submeshes_keep_their_order() {
+        let quad = |x: f64| {
+            vec![
+                DVec3::new(x, 0.0, 0.0),
+                DVec3::new(x + 1.0, 0.0, 0.0),
+                DVec3::new(x, 1.0, 0.0),
+                DVec3::new(x + 1.0, 1.0, 0.0),
+            ]
+        };
+        let positions: Vec<DVec3> = quad(0.0).into_iter().chain(quad(5.0)).collect();
+        let mesh = TriMesh::new(positions, vec![[0, 1, 2], [1, 3, 2], [4, 5, 6], [5, 7, 6]]).unwrap();
+        assert_eq!(mesh.components(), (vec![0, 0, 0, 0, 1, 1, 1, 1], 2));
+        let second = mesh.submesh(&[4, 5, 6, 7]).unwrap();
+        assert_eq!(second.triangles(), &[[0, 1, 2], [1, 3, 2]]);
+        assert_eq!(second.positions()[0].x, 5.0);
     }
 }

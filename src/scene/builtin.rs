@@ -13,6 +13,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("table", include_str!("../../assets/scenes/table.toml")),
     ("balloon", include_str!("../../assets/scenes/balloon.toml")),
     ("beams-steered", include_str!("../../assets/scenes/beams-steered.toml")),
+    ("dancer", include_str!("../../assets/scenes/dancer.toml")),
 ];
 
 /// Names of the built-in scenes, in order.

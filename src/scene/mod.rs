@@ -13,7 +13,7 @@ mod validate;
 pub use builtin::{BUILTIN, builtin_names};
 pub use error::SceneError;
 pub use schema::{
-    Aabb, CameraSpec, Collider, Load, Material, MeshSource, Motion, Placement, Scene, Selection, SolverSettings,
+    Aabb, CameraSpec, Collider, Load, Material, MeshSource, Motion, Part, Placement, Scene, Selection, SolverSettings,
 };
 pub use script::{Joint, Key, Skeleton, Track};
 pub use setup::Setup;

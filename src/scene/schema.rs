@@ -40,6 +40,9 @@ pub struct Scene {
     /// A skeleton whose joints tracks can follow (none by default).
     #[serde(default)]
     pub skeleton: Skeleton,
+    /// Parts simulated each by its own method and settings (connected components of the mesh).
+    #[serde(default)]
+    pub parts: Vec<Part>,
     /// Method and its numerical settings.
     pub solver: SolverSettings,
     /// Initial view.
@@ -103,6 +106,13 @@ pub enum MeshSource {
         length: f64,
         /// Geodesic frequency (36 gives 12,962 vertices).
         frequency: usize,
+    },
+    /// The dancer's shell parts: hat, tunic and two trouser legs (four components, in that order).
+    Dancer {
+        /// Height of the figure, metres.
+        height: f64,
+        /// Segments around each tube.
+        around: usize,
     },
     /// A triangle mesh from an OBJ file (path relative to the scene file).
     Obj {
@@ -269,6 +279,51 @@ pub struct Motion {
     pub frequency: f64,
     /// Angular velocity, rad/s.
     pub spin: [f64; 3],
+}
+
+/// Connected components of the mesh simulated by their own method and settings: every component
+/// with a vertex in `select`; what a part does not set comes from `[solver]`. Vertices in no part
+/// run with `[solver]` as one more part.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Part {
+    /// Picks the part's components.
+    pub select: Selection,
+    /// Method of this part.
+    #[serde(default)]
+    pub method: Option<String>,
+    /// Mode count (modal methods).
+    #[serde(default)]
+    pub modes: Option<usize>,
+    /// Fixed step, s.
+    #[serde(default)]
+    pub step: Option<f64>,
+    /// Rayleigh mass damping α, 1/s.
+    #[serde(default)]
+    pub rayleigh_alpha: Option<f64>,
+    /// Rayleigh stiffness damping β, s.
+    #[serde(default)]
+    pub rayleigh_beta: Option<f64>,
+    /// Modal methods: relative compliance of drag constraints.
+    #[serde(default)]
+    pub constraint_damping: Option<f64>,
+}
+
+impl Part {
+    /// `[solver]` with this part's settings in place.
+    pub fn settings(&self, solver: &SolverSettings) -> SolverSettings {
+        let mut s = solver.clone();
+        if let Some(m) = &self.method {
+            s.method = m.clone();
+            s.accuracy = None;
+        }
+        s.modes = self.modes.unwrap_or(s.modes);
+        s.step = self.step.or(s.step);
+        s.rayleigh_alpha = self.rayleigh_alpha.unwrap_or(s.rayleigh_alpha);
+        s.rayleigh_beta = self.rayleigh_beta.unwrap_or(s.rayleigh_beta);
+        s.constraint_damping = self.constraint_damping.or(s.constraint_damping);
+        s
+    }
 }
 
 /// Which method runs the scene, and its numerical settings (method-specific ones are ignored by others).

@@ -24,6 +24,8 @@ pub struct Setup {
     pub bodies: Vec<Body>,
     /// The vertices of each constraint track (in the scene's order).
     pub tracks: Vec<Vec<usize>>,
+    /// The vertices of each part (whole connected components, sorted; in the scene's order).
+    pub parts: Vec<Vec<usize>>,
 }
 
 impl Setup {
@@ -53,7 +55,9 @@ impl Setup {
         for (i, t) in scene.tracks.iter().enumerate() {
             tracks.push(select(&mesh, &t.select).map_err(|r| invalid(format!("tracks[{i}].select"), r))?);
         }
-        Ok(Self { scene, origin, mesh, anchors, loads, bodies, tracks })
+        let parts = parts(&mesh, &scene.parts.iter().map(|p| &p.select).collect::<Vec<_>>())
+            .map_err(|(i, r)| invalid(format!("parts[{i}].select"), r))?;
+        Ok(Self { scene, origin, mesh, anchors, loads, bodies, tracks, parts })
     }
 
     /// Lumped vertex masses: density × one third of the area of each incident triangle, kg.
@@ -84,6 +88,7 @@ fn make_mesh(source: &MeshSource, origin: &Origin) -> Result<TriMesh, MeshError>
         MeshSource::Icosphere { radius, frequency } => generate::icosphere(radius, frequency),
         MeshSource::UvSphere { radius, rings, sectors } => generate::uv_sphere(radius, rings, sectors),
         MeshSource::Creature { length, frequency } => generate::creature(length, frequency),
+        MeshSource::Dancer { height, around } => generate::dancer(height, around),
         MeshSource::Obj { ref path } => crate::mesh::obj::load_obj(&origin.dir.join(path)),
     }
 }
@@ -132,6 +137,27 @@ fn place(mesh: &TriMesh, p: &Placement) -> Result<TriMesh, MeshError> {
     let positions = (0..p.copies).flat_map(|k| placed.iter().map(move |&x| x + shift * k as f64)).collect();
     let triangles = (0..p.copies).flat_map(|k| mesh.triangles().iter().map(move |t| t.map(|i| i + k * n))).collect();
     TriMesh::new(positions, triangles)
+}
+
+/// The vertices of every connected component each selection touches, or (which selection, why) not.
+fn parts(mesh: &TriMesh, selections: &[&Selection]) -> Result<Vec<Vec<usize>>, (usize, String)> {
+    let (component, _) = mesh.components();
+    let mut owner: Vec<Option<usize>> = vec![None; mesh.vertex_count()];
+    let mut parts = Vec::with_capacity(selections.len());
+    for (i, s) in selections.iter().enumerate() {
+        let picked = select(mesh, s).map_err(|r| (i, r))?;
+        let mut touched: Vec<usize> = picked.iter().map(|&v| component[v]).collect();
+        touched.sort_unstable();
+        touched.dedup();
+        let vertices: Vec<usize> =
+            (0..mesh.vertex_count()).filter(|&v| touched.binary_search(&component[v]).is_ok()).collect();
+        if let Some(j) = vertices.iter().find_map(|&v| owner[v]) {
+            return Err((i, format!("shares a connected component with parts[{j}]")));
+        }
+        vertices.iter().for_each(|&v| owner[v] = Some(i));
+        parts.push(vertices);
+    }
+    Ok(parts)
 }
 
 /// The vertices a selection picks, or why it picks none.

@@ -85,6 +85,10 @@ fn mesh(m: &MeshSource) -> Result<(), Invalid> {
             positive("mesh.length", *length)?;
             at_least("mesh.frequency", *frequency, 2)
         }
+        MeshSource::Dancer { height, around } => {
+            positive("mesh.height", *height)?;
+            at_least("mesh.around", *around, 3)
+        }
         MeshSource::Obj { path } if path.is_empty() => Err(("mesh.path".into(), "is empty".into())),
         MeshSource::Obj { .. } => Ok(()),
     }
@@ -100,6 +104,25 @@ impl Scene {
         at_least("placement.copies", self.placement.copies, 1)?;
         vec3("placement.copy_offset", self.placement.copy_offset)?;
         script(&self.tracks, &self.skeleton)?;
+        for (i, p) in self.parts.iter().enumerate() {
+            let key = |k: &str| format!("parts[{i}].{k}");
+            selection(&key("select"), &p.select)?;
+            if p.method.as_deref() == Some("") {
+                return Err((key("method"), "is empty".into()));
+            }
+            if let Some(m) = p.modes {
+                at_least(&key("modes"), m, 1)?;
+            }
+            if let Some(h) = p.step {
+                positive(&key("step"), h)?;
+            }
+            for (name, v) in [("rayleigh_alpha", p.rayleigh_alpha), ("rayleigh_beta", p.rayleigh_beta)] {
+                v.map(|v| non_negative(&key(name), v)).transpose()?;
+            }
+            if let Some(d) = p.constraint_damping {
+                positive(&key("constraint_damping"), d)?;
+            }
+        }
         let m = &self.material;
         positive("material.density", m.density)?;
         let coefficients = [

@@ -296,16 +296,7 @@ pub const RELAX_STEPS: usize = 5;
 
 /// `ω₁` of the anchored shell, rad/s (from a one-mode analysis).
 pub fn lowest_frequency(setup: &Setup) -> Result<f64, SolverError> {
-    use super::modal::compute::{ModalProblem, analyse};
-    let masses = setup.masses();
-    let problem = ModalProblem {
-        mesh: &setup.mesh,
-        anchors: &setup.anchors,
-        masses: &masses,
-        stiffness: crate::energy::ShellStiffness::from(&setup.scene.material),
-        modes: 1,
-    };
-    Ok(analyse(&problem, &|_| {})?.basis.eigenvalues[0].sqrt())
+    Ok(super::modal::compute::analyse_scene(setup, 1)?.basis.eigenvalues[0].sqrt())
 }
 
 #[cfg(test)]

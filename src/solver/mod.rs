@@ -14,6 +14,7 @@ mod error;
 pub mod modal;
 mod newton;
 mod params;
+pub mod parts;
 pub mod registry;
 mod rigid;
 pub mod run;

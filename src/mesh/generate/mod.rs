@@ -1,12 +1,14 @@
 //! Procedural meshes for every scene the papers use. Each returns a validated [`super::TriMesh`].
 
 mod creature;
+mod dancer;
 mod delaunay;
 mod grid;
 mod sphere;
 mod v_beam;
 
 pub use creature::creature;
+pub use dancer::dancer;
 pub use delaunay::delaunay_sheet;
 pub use grid::grid;
 pub use sphere::{icosphere, uv_sphere};

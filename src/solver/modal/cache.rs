@@ -37,7 +37,8 @@ pub fn key(p: &ModalProblem<'_>) -> u64 {
     h = fnv(p.masses.iter().copied().flat_map(f), h);
     let s = p.stiffness;
     h = fnv([s.k_area, s.k_length, s.k_bend].into_iter().flat_map(f), h);
-    fnv((p.modes as u64).to_le_bytes(), h)
+    h = fnv((p.modes as u64).to_le_bytes(), h);
+    fnv([u8::from(p.keep_rigid)], h)
 }
 
 /// Where analyses are cached (or that they are not).
@@ -105,7 +106,8 @@ fn decode(p: &ModalProblem<'_>, bytes: &[u8]) -> Option<ModalAnalysis> {
     let words: Vec<f64> = rest.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8]))).collect();
     let n = p.mesh.vertex_count();
     let (m, rigid, solves) = (*words.first()? as usize, *words.get(1)? as usize, *words.get(2)? as usize);
-    if m != p.modes || words.len() != 7 + 2 * m + 3 * n * m || rest.len() % 8 != 0 {
+    let expected = p.modes + if p.keep_rigid { rigid } else { 0 };
+    if m != expected || words.len() != 7 + 2 * m + 3 * n * m || rest.len() % 8 != 0 {
         return None;
     }
     let timings = PrecomputeTimings { assembly: words[3], factorisation: words[4], eigen: words[5] };
@@ -176,7 +178,7 @@ mod tests {
 
         fn problem(&self) -> ModalProblem<'_> {
             let (mesh, anchors, masses) = (&self.mesh, &self.anchors, &self.masses);
-            ModalProblem { mesh, anchors, masses, stiffness: self.stiffness, modes: self.modes }
+            ModalProblem { mesh, anchors, masses, stiffness: self.stiffness, modes: self.modes, keep_rigid: false }
         }
     }
 

@@ -4,7 +4,11 @@
 //! `‖Kφ − λMφ‖ / ‖Kφ‖` is measured with the real `K` and reported.
 //!
 //! A free (unanchored) shell has 6 rigid modes with `λ = 0`; the shift is negative so `K − σM` is
-//! positive definite, 6 extra pairs are requested and the near-zero ones are dropped.
+//! positive definite, 6 extra pairs are requested and the near-zero ones are dropped — or, with
+//! [`ModalProblem::keep_rigid`], kept in front of the deformation modes with `λ = 0` exactly, so the
+//! shell can move as a whole (a free part held by tracks). Modal warping reproduces a rigid motion
+//! exactly: for `u = t + ω × X` the closed form gives `(exp([ω]×) − I) X + (∫₀¹exp(s[ω]×)ds) t`, again
+//! a rigid motion.
 
 use std::time::Instant;
 
@@ -31,6 +35,8 @@ pub struct ModalProblem<'a> {
     pub stiffness: ShellStiffness,
     /// Number of (deformation) modes wanted.
     pub modes: usize,
+    /// Keep a free shell's rigid modes (as `λ = 0`, ahead of the `modes` deformation modes).
+    pub keep_rigid: bool,
 }
 
 /// Wall-clock seconds of each precomputation stage.
@@ -149,7 +155,10 @@ pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<Mod
     let lambda_max = gershgorin_max(&k, &k_values, &mass);
     let rigid: Vec<bool> = pairs.values.iter().map(|&l| free && l.abs() < 1e-8 * scale).collect();
     let rigid_modes = rigid.iter().filter(|&&r| r).count();
-    let keep: Vec<usize> = (0..wanted).filter(|&i| !rigid[i]).take(problem.modes).collect();
+    let mut keep: Vec<usize> = (0..wanted).filter(|&i| !rigid[i]).take(problem.modes).collect();
+    if problem.keep_rigid {
+        keep.splice(0..0, (0..wanted).filter(|&i| rigid[i]));
+    }
     let floor = |i: usize| round_off_floor(pairs.values[i], lambda_max);
     if let Some(&bad) = keep.iter().find(|&&i| residuals[i] > MAX_RESIDUAL.max(floor(i))) {
         return Err(SolverError::Numerical(format!(
@@ -166,7 +175,8 @@ pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<Mod
             full
         })
         .collect();
-    let basis = ModalBasis::new(mesh, keep.iter().map(|&i| pairs.values[i]).collect(), &shapes);
+    let values = keep.iter().map(|&i| if rigid[i] { 0.0 } else { pairs.values[i] }).collect();
+    let basis = ModalBasis::new(mesh, values, &shapes);
     let eigen = t2.elapsed().as_secs_f64();
     progress(1.0);
     Ok(ModalAnalysis {
@@ -177,6 +187,21 @@ pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<Mod
         timings: PrecomputeTimings { assembly, factorisation, eigen },
         solves: pairs.block_solves,
     })
+}
+
+/// The deformation modes of a scene's shell (its mesh, anchors, lumped masses and stiffnesses),
+/// computed afresh (no cache).
+pub fn analyse_scene(setup: &crate::scene::Setup, modes: usize) -> Result<ModalAnalysis, SolverError> {
+    let masses = setup.masses();
+    let problem = ModalProblem {
+        mesh: &setup.mesh,
+        anchors: &setup.anchors,
+        masses: &masses,
+        stiffness: ShellStiffness::from(&setup.scene.material),
+        modes,
+        keep_rigid: false,
+    };
+    analyse(&problem, &|_| {})
 }
 
 /// The round-off floor of the relative residual of a mode `λ` when the largest eigenvalue of `M⁻¹K` is

@@ -97,6 +97,8 @@ struct Request {
     density: f64,
     stiffness: ShellStiffness,
     modes: usize,
+    /// Keep the rigid modes: a free shell held only by tracks must be able to move as a whole.
+    keep_rigid: bool,
 }
 
 impl Request {
@@ -113,6 +115,7 @@ impl Request {
             masses: &masses,
             stiffness: self.stiffness,
             modes: self.modes,
+            keep_rigid: self.keep_rigid,
         };
         if let Some(a) = self.cache.load(&problem) {
             return Ok(a);
@@ -160,6 +163,7 @@ impl ModalSolver {
             density: m.density,
             stiffness: ShellStiffness::from(m),
             modes: s.modes,
+            keep_rigid: setup.anchors.is_empty() && !setup.tracks.is_empty(),
         };
         let method = if warp { MWTS.name } else { LMA.name };
         let analysis = request.run(&|_| {}).map_err(|e| named(e, method))?;
