@@ -9,7 +9,7 @@ pub mod cloth;
 mod drag;
 mod ds_explicit;
 mod ds_implicit;
-mod ds_static;
+pub mod ds_static;
 mod error;
 pub mod modal;
 mod newton;
