@@ -161,3 +161,26 @@ fn parameter_fields_are_wide_enough_for_their_values() {
         assert!(field.rect().width() >= 70.0, "`{:?}` is {} points wide", ak.label(), field.rect().width());
     }
 }
+
+#[test]
+fn the_ghost_switch_asks_for_a_ghost_and_shows_its_error() {
+    let (mut h, _sim) = harness("cantilever");
+    h.run();
+    h.get_by_label("Ghost").click();
+    h.run();
+    h.get_by_role_and_label(Role::Button, "lma").click();
+    h.run();
+    assert!(h.state().actions.contains(&UiAction::SetGhost(Some("lma".into()))), "{:?}", h.state().actions);
+    // Once a ghost runs, its live error is shown, and choosing `none` stops it.
+    let view = shellwarp::app::ghost::GhostView { method: "lma", positions: Vec::new(), error: 0.0375, message: None };
+    h.state_mut().snapshot.ghost = Some(view);
+    h.state_mut().actions.clear();
+    h.run();
+    h.get_by_label_contains("error vs ghost lma: 3.75%");
+    h.get_by_label("Ghost").click();
+    h.run();
+    h.get_by_role_and_label(Role::Button, "none").click();
+    h.run();
+    assert!(h.state().actions.contains(&UiAction::SetGhost(None)), "{:?}", h.state().actions);
+    assert!(matches!(UiAction::SetGhost(None).command(), Some(Command::SetGhost(None))));
+}

@@ -53,7 +53,13 @@ pub enum LoadError {
     /// The worker thread ended without an answer.
     #[error("loading {0} stopped unexpectedly")]
     Stopped(String),
+    /// The solver was built but refused by the load's check (e.g. a ghost too slow for real time).
+    #[error("{0}")]
+    Refused(String),
 }
+
+/// A check a loaded solver must pass (run on the worker thread).
+pub type Check = fn(&mut dyn Solver) -> Result<f64, String>;
 
 /// A scene ready to be shown.
 pub struct Loaded {
@@ -88,11 +94,20 @@ pub struct Loader {
 impl Loader {
     /// Start loading `source` on a worker thread.
     pub fn start(&mut self, source: SceneSource) {
+        self.start_checked(source, None);
+    }
+
+    /// Start loading `source` on a worker thread, then run `check` on its solver there.
+    pub fn start_checked(&mut self, source: SceneSource, check: Option<Check>) {
         let (tx, receiver) = mpsc::channel();
         let what = source.describe();
         // If the thread cannot start, `tx` goes with it and the next poll reports `Stopped`.
         let _ = std::thread::Builder::new().name("shellwarp-load".into()).spawn(move || {
-            let _ = tx.send(load(source));
+            let result = load(source).and_then(|mut loaded| match check {
+                Some(check) => check(loaded.solver.as_mut()).map(|_| loaded).map_err(LoadError::Refused),
+                None => Ok(loaded),
+            });
+            let _ = tx.send(result);
         });
         self.job = Some(Job { what, started: Instant::now(), receiver });
     }

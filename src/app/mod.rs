@@ -1,6 +1,7 @@
 //! The interactive viewer: simulation thread and hand-off (UI-independent), window, panel, picking.
 
 pub mod gestures;
+pub mod ghost;
 pub mod gizmo;
 pub mod loader;
 pub mod orbit;

@@ -32,6 +32,8 @@ pub enum UiAction {
     SwitchScene(String),
     /// Run the current scene with another method.
     SwitchMethod(String),
+    /// Run a reference ghost with this method beside the current one (`None`: stop it).
+    SetGhost(Option<String>),
     /// Save a screenshot.
     Screenshot,
 }
@@ -201,7 +203,38 @@ fn pickers(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot, actions: 
             actions.push(UiAction::SwitchMethod(method));
         }
         ui.end_row();
+        let label = ui.label("Ghost").on_hover_text("A reference method drawn as a wireframe over this one");
+        let shown = snap.ghost.as_ref().map(|g| g.method.to_string());
+        let mut ghost = shown.clone();
+        egui::ComboBox::from_id_salt("ghost")
+            .selected_text(ghost.as_deref().unwrap_or("none"))
+            .show_ui(ui, |ui| {
+                ui.selectable_value(&mut ghost, None, "none").on_hover_text("No reference ghost");
+                for m in &state.methods {
+                    let summary = registry::find(m).map_or("", |x| x.summary);
+                    ui.selectable_value(&mut ghost, Some(m.clone()), m).on_hover_text(summary);
+                }
+            })
+            .response
+            .labelled_by(label.id)
+            .on_hover_text(
+                "Run another method on the same scene and drags, drawn as a blue wireframe, with the live \
+                 relative displacement error against it (refused if it cannot keep real time)",
+            );
+        if ghost != shown {
+            actions.push(UiAction::SetGhost(ghost));
+        }
+        ui.end_row();
     });
+    if let Some(g) = &snap.ghost {
+        ui.label(format!("error vs ghost {}: {:.2}%", g.method, 100.0 * g.error)).on_hover_text(
+            "‖x − x_ghost‖ / ‖x_ghost − X‖ over all vertices, at the same simulated time: what this method \
+             gives up against the ghost",
+        );
+        if let Some(m) = &g.message {
+            ui.colored_label(ERROR, m);
+        }
+    }
 }
 
 fn transport(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot, actions: &mut Vec<UiAction>) {
@@ -388,7 +421,13 @@ impl UiAction {
             UiAction::SetPacing(p) => Command::SetPacing(*p),
             UiAction::RemoveDrag(id) => Command::RemoveDrag(*id),
             UiAction::ClearDrags => Command::ClearDrags,
-            UiAction::SwitchScene(_) | UiAction::SwitchMethod(_) | UiAction::Screenshot => return None,
+            UiAction::SetGhost(None) => Command::SetGhost(None),
+            UiAction::SwitchScene(_)
+            | UiAction::SwitchMethod(_)
+            | UiAction::SetGhost(Some(_))
+            | UiAction::Screenshot => {
+                return None;
+            }
         })
     }
 }

@@ -23,6 +23,8 @@ const POSITION_DRAG: [f32; 4] = [0.95, 0.85, 0.1, 1.0];
 const ORIENTATION_DRAG: [f32; 4] = [0.8, 0.1, 0.8, 1.0];
 const GRID: [f32; 4] = [0.25, 0.27, 0.32, 0.6];
 const BONE: [f32; 4] = [0.05, 0.6, 0.2, 1.0];
+/// Colour of the reference ghost's wireframe.
+pub const GHOST: [f32; 4] = [0.05, 0.25, 0.95, 1.0];
 /// Radius of the rotate gizmo, in marker sizes.
 const GIZMO_MARKERS: f32 = 9.0;
 /// Rotate gizmos are drawn when there are at most this many orientation drags.
@@ -74,6 +76,7 @@ pub struct SceneView {
     grid_extent: f32,
     marker_size: f32,
     rig: Rig,
+    edges: Vec<[usize; 2]>,
 }
 
 /// A position as the renderer's `[f32; 3]`.
@@ -132,6 +135,7 @@ impl SceneView {
             grid_extent: (2.0 * size) as f32,
             marker_size: (0.012 * size) as f32,
             rig: Rig::new(&setup.scene.skeleton),
+            edges: setup.mesh.topology().edges.iter().map(|e| e.v).collect(),
         }
     }
 
@@ -202,6 +206,17 @@ impl SceneView {
             }
         }
         frame
+    }
+}
+
+impl SceneView {
+    /// Add the edges of a second state of the same mesh (a reference ghost) as lines.
+    pub fn ghost_lines(&self, frame: &mut Frame, positions: &[DVec3]) {
+        for &[a, b] in &self.edges {
+            if let (Some(&p), Some(&q)) = (positions.get(a), positions.get(b)) {
+                frame.line(f32x3(p), f32x3(q), GHOST);
+            }
+        }
     }
 }
 

@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use triple_buffer::{Output, triple_buffer};
 
+use super::ghost::{Ghost, GhostView};
 use crate::solver::{Drag, DragId, DragKind, ParamValue, Progress, Solver, SolverError, StepStats};
 
 /// How simulated time relates to wall-clock time.
@@ -56,6 +57,8 @@ pub struct Snapshot {
     pub last_error: Option<String>,
     /// The solver's background work, if any.
     pub progress: Option<Progress>,
+    /// The reference ghost at the same time, if one runs.
+    pub ghost: Option<GhostView>,
 }
 
 /// A request to the simulation thread.
@@ -78,8 +81,10 @@ pub enum Command {
     StepOnce,
     /// Change pacing.
     SetPacing(Pacing),
-    /// Swap in another solver (method or scene switch).
+    /// Swap in another solver (method or scene switch); a ghost is dropped with the old solver.
     Replace(Box<dyn Solver>),
+    /// Run a reference ghost beside the solver (built on the same scene), or stop it.
+    SetGhost(Option<Box<dyn Solver>>),
     /// End the thread.
     Quit,
 }
@@ -153,6 +158,10 @@ struct SimLoop {
     last_good: Vec<DVec3>,
     /// The background progress in the latest published snapshot.
     shown_progress: Option<Progress>,
+    /// The reference ghost, if any.
+    ghost: Option<Ghost>,
+    /// Simulated time of the main solver.
+    time: f64,
 }
 
 /// When more than this much simulated time is owed, the backlog is dropped instead of caught up.
@@ -175,6 +184,8 @@ impl SimLoop {
             last_error: None,
             running_wall: 0.0,
             shown_progress: None,
+            ghost: None,
+            time: 0.0,
         }
     }
 
@@ -200,6 +211,7 @@ impl SimLoop {
             wall_time: self.running_wall,
             last_error: self.last_error.clone(),
             progress: solver.progress(),
+            ghost: self.ghost.as_ref().map(Ghost::view),
         }
     }
 
@@ -216,6 +228,7 @@ impl SimLoop {
         self.diverged = None;
         self.running_wall = 0.0;
         self.owed = 0.0;
+        self.time = 0.0;
         self.remember_positions();
     }
 
@@ -234,18 +247,50 @@ impl SimLoop {
 
     /// Apply one command; returns false on Quit.
     fn apply(&mut self, command: Command) -> bool {
+        let ghost = self.ghost.as_mut();
         let result: Result<(), SolverError> = match command {
             Command::SetParam(name, value) => self.solver.set_param(&name, value),
-            Command::AddDrag(id, drag) => self.solver.drags_mut().insert(id, drag),
-            Command::MoveDrag(id, kind) => self.solver.drags_mut().retarget(id, kind),
-            Command::RemoveDrag(id) => self.solver.drags_mut().remove(id).map(|_| ()),
+            Command::AddDrag(id, drag) => {
+                if let Some(g) = ghost {
+                    g.add_drag(id, drag);
+                }
+                self.solver.drags_mut().insert(id, drag)
+            }
+            Command::MoveDrag(id, kind) => {
+                if let Some(g) = ghost {
+                    g.move_drag(id, kind);
+                }
+                self.solver.drags_mut().retarget(id, kind)
+            }
+            Command::RemoveDrag(id) => {
+                if let Some(g) = ghost {
+                    g.remove_drag(id);
+                }
+                self.solver.drags_mut().remove(id).map(|_| ())
+            }
             Command::ClearDrags => {
+                if let Some(g) = ghost {
+                    g.clear_drags();
+                }
                 self.solver.drags_mut().clear();
                 Ok(())
             }
             Command::Reset => {
+                if let Some(g) = ghost {
+                    g.reset();
+                }
                 self.solver.reset();
                 self.restart();
+                Ok(())
+            }
+            Command::SetGhost(solver) => {
+                self.ghost = solver.map(|s| {
+                    let mut g = Ghost::new(s);
+                    // The ghost takes the main solver's drags and catches up with its time.
+                    self.solver.drags().iter().for_each(|&(id, d)| g.add_drag(id, d));
+                    g.follow(self.time, self.solver.positions());
+                    g
+                });
                 Ok(())
             }
             Command::SetPaused(p) => {
@@ -264,6 +309,7 @@ impl SimLoop {
             }
             Command::Replace(solver) => {
                 self.solver = solver;
+                self.ghost = None;
                 self.restart();
                 Ok(())
             }
@@ -281,7 +327,11 @@ impl SimLoop {
             Ok(stats) => {
                 self.stats = stats;
                 self.steps += 1;
+                self.time = stats.sim_time;
                 self.remember_positions();
+                if let Some(g) = &mut self.ghost {
+                    g.follow(self.time, self.solver.positions());
+                }
             }
             Err(e) => self.diverged = Some(e.to_string()),
         }

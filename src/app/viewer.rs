@@ -15,6 +15,7 @@ use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
 use super::gestures::{Gestures, ViewUnderPointer};
+use super::ghost;
 use super::loader::{self, Loaded, Loader, SceneSource};
 use super::orbit::Orbit;
 use super::panel::{self, PanelState, UiAction};
@@ -23,7 +24,7 @@ use super::sim_thread::{Command, Pacing, SimHandle, SimStatus, Snapshot};
 use super::surface::{PanelPaint, WindowSurface};
 use crate::render::Camera;
 use crate::scene::{self, Setup};
-use crate::solver::{Drag, DragKind, METHODS};
+use crate::solver::{Drag, DragKind, METHODS, Solver};
 
 /// What to open and, for tests and scripts, what to do unattended.
 #[derive(Debug, Clone, Default)]
@@ -44,6 +45,8 @@ pub struct ViewerOptions {
     pub drags: Vec<Drag>,
     /// With `screenshot_after`: also write the simulation state shown in the screenshot as JSON.
     pub state_out: Option<PathBuf>,
+    /// Run a reference ghost with this method (refused if it cannot keep real time).
+    pub ghost: Option<String>,
 }
 
 /// The simulation state written by `state_out`: what the screenshot shows, as numbers, and how it
@@ -77,16 +80,25 @@ impl ViewerState {
 
 /// Open the window and run until it is closed (or the unattended screenshot is taken).
 pub fn run(options: ViewerOptions) -> anyhow::Result<()> {
-    let loaded = loader::load(SceneSource { scene: options.scene.clone(), overrides: options.overrides.clone() })?;
+    let source = SceneSource { scene: options.scene.clone(), overrides: options.overrides.clone() };
+    let loaded = loader::load(source.clone())?;
+    let ghost = match &options.ghost {
+        Some(method) => {
+            let mut g = loader::load(source.with_method(method))?;
+            ghost::check_pace(g.solver.as_mut()).map_err(anyhow::Error::msg)?;
+            Some(g.solver)
+        }
+        None => None,
+    };
     let event_loop = EventLoop::new().context("opening the display (is DISPLAY set? try xvfb-run)")?;
-    let mut app = App { options, pending: Some(loaded), running: None, error: None };
+    let mut app = App { options, pending: Some((loaded, ghost)), running: None, error: None };
     event_loop.run_app(&mut app).context("running the event loop")?;
     app.error.map_or(Ok(()), Err)
 }
 
 struct App {
     options: ViewerOptions,
-    pending: Option<Loaded>,
+    pending: Option<(Loaded, Option<Box<dyn Solver>>)>,
     running: Option<Running>,
     error: Option<anyhow::Error>,
 }
@@ -102,6 +114,8 @@ struct Running {
     orbit: Orbit,
     panel: PanelState,
     loader: Loader,
+    /// A ghost being built (and timed) in the background.
+    ghost_loader: Loader,
     pointer: Vec2,
     gestures: Gestures,
     frames: u64,
@@ -116,8 +130,8 @@ impl ApplicationHandler for App {
         if self.running.is_some() {
             return;
         }
-        let Some(loaded) = self.pending.take() else { return };
-        match Running::new(event_loop, &self.options, loaded) {
+        let Some((loaded, ghost)) = self.pending.take() else { return };
+        match Running::new(event_loop, &self.options, loaded, ghost) {
             Ok(r) => {
                 r.window.request_redraw();
                 self.running = Some(r);
@@ -146,7 +160,12 @@ fn scene_parts(setup: &Setup) -> (String, SceneView, Orbit) {
 }
 
 impl Running {
-    fn new(event_loop: &ActiveEventLoop, options: &ViewerOptions, loaded: Loaded) -> anyhow::Result<Self> {
+    fn new(
+        event_loop: &ActiveEventLoop,
+        options: &ViewerOptions,
+        loaded: Loaded,
+        ghost: Option<Box<dyn Solver>>,
+    ) -> anyhow::Result<Self> {
         let Loaded { source, setup, solver } = loaded;
         let (title, view, orbit) = scene_parts(&setup);
         let (w, h) = options.size;
@@ -163,6 +182,9 @@ impl Running {
             None,
         );
         let sim = SimHandle::spawn(solver, options.paused, Pacing::Scaled(1.0));
+        if ghost.is_some() {
+            sim.send(Command::SetGhost(ghost));
+        }
         let panel = PanelState::new(
             scene::builtin_names().into_iter().map(String::from).collect(),
             METHODS.iter().map(|m| m.name.to_string()).collect(),
@@ -183,6 +205,7 @@ impl Running {
             orbit,
             panel,
             loader: Loader::default(),
+            ghost_loader: Loader::default(),
             pointer: Vec2::ZERO,
             gestures,
             frames: 0,
@@ -291,6 +314,9 @@ impl Running {
         match action {
             UiAction::SwitchScene(name) => self.loader.start(SceneSource { scene: name, overrides: Vec::new() }),
             UiAction::SwitchMethod(method) => self.loader.start(self.source.with_method(&method)),
+            UiAction::SetGhost(Some(method)) => {
+                self.ghost_loader.start_checked(self.source.with_method(&method), Some(ghost::check_pace));
+            }
             UiAction::Screenshot => self.screenshot = true,
             other => {
                 if let Some(c) = other.command() {
@@ -319,7 +345,13 @@ impl Running {
                 self.panel.scene.clone_from(&self.source.scene);
             }
         }
-        self.panel.loading = self.loader.status();
+        match self.ghost_loader.poll() {
+            // A ghost for a scene that has since been switched away is dropped.
+            Some(Ok(g)) if g.source.scene == self.source.scene => self.sim.send(Command::SetGhost(Some(g.solver))),
+            Some(Ok(_)) | None => {}
+            Some(Err(e)) => self.panel.message = Some(e.to_string()),
+        }
+        self.panel.loading = self.loader.status().or_else(|| self.ghost_loader.status());
     }
 
     /// Run the panel for `snapshot`; returns what it drew.
@@ -360,6 +392,9 @@ impl Running {
         let options_view = ViewOptions { wireframe: self.panel.wireframe };
         let mut frame =
             self.view.frame(camera, &snapshot.positions, snapshot.stats.sim_time, &snapshot.drags, options_view);
+        if let Some(g) = &snapshot.ghost {
+            self.view.ghost_lines(&mut frame, &g.positions);
+        }
         frame.viewport = Some(self.viewport_rect());
         self.window.request_redraw();
         let Some(texture) = self.surface.draw(&frame, paint)? else { return Ok(false) };

@@ -45,6 +45,10 @@ pub struct ViewArgs {
     /// With --screenshot-after: also write the simulation state in the screenshot as JSON.
     #[arg(long, value_name = "FILE")]
     state_out: Option<PathBuf>,
+    /// Run a reference ghost with this method on the same scene and drags, drawn as a wireframe, with
+    /// the live relative error in the panel (refused if it cannot keep real time).
+    #[arg(long, value_name = "METHOD")]
+    ghost: Option<String>,
 }
 
 impl Default for ViewArgs {
@@ -91,7 +95,11 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
             .chain(args.twist.iter().map(|&(vertex, w)| Drag { vertex, kind: DragKind::Orientation(w) }))
             .collect(),
         state_out: args.state_out.clone(),
+        ghost: args.ghost.clone(),
     };
+    if let Some(g) = &args.ghost {
+        shellwarp::solver::registry::find(g)?;
+    }
     viewer::run(options).map_err(|e| anyhow::anyhow!(without_source_location(&format!("{e:#}"))))?;
     Ok(ExitCode::SUCCESS)
 }

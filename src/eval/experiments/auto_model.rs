@@ -142,8 +142,9 @@ impl Experiment for AutoModel {
             setup:
                 "Each scene gives `solver.accuracy` (the target below). The chooser measures every candidate's cost \
                  (a few timed steps), then estimates errors in order of cost until one meets the target: shells by \
-                 three Newton iterations of the full discrete-shell equations from the candidate's equilibrium; \
-                 the implicit cloth solves the full cloth equations (estimate 0). Errors are of the equilibrium \
+                 three Newton iterations of the full discrete-shell equations from the candidate's equilibrium, \
+                 cloth by relaxing the candidate's rest state with five near-static implicit steps (0.1 s, PCG \
+                 tolerance 1e-8). Errors are of the equilibrium \
                  under the scene's loads. The brute force runs every candidate to rest against the reference \
                  (`ds-static`; cloth: `cloth` at h = 10 ms, PCG tolerance 1e-6) and takes the cheapest that truly \
                  meets the target. Scenes: `curtain` is the hanging sheet held along its top edge, `hammock` the \

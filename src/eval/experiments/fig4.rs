@@ -40,7 +40,7 @@ const COLUMNS: &[Column] = &[
 /// `k_B` of the × 1 pair, N·m: soft enough that the flat beam hangs and the V-beam's section works.
 pub const BASE_K_BEND: f64 = 0.005;
 const FACTORS: [f64; 3] = [1.0, 10.0, 100.0];
-const BEAMS: [(&str, f64); 2] = [("flat", 180.0), ("v", 90.0)];
+const BEAMS: [(&str, f64); 2] = [("flat", 180.0), ("V", 90.0)];
 const MODES: usize = 8;
 
 fn overrides(angle: f64, k_bend: f64) -> Vec<String> {
@@ -176,9 +176,9 @@ impl Experiment for PaperFig4 {
             tiles.push((
                 picture,
                 format!(
-                    "{} beam, k_B × {}: tip {} m",
+                    "{}-beam, k_B × {}: tip {} m",
                     row[bi].text(),
-                    row[ki].text(),
+                    row[ki].num(),
                     super::super::report::number(row[ti].num())
                 ),
             ));
@@ -203,7 +203,7 @@ impl Experiment for PaperFig4 {
             };
             if let (Some(soft), Some(stiff)) = (tip("ds-static", 1.0), tip("ds-static", 100.0)) {
                 section.findings.push(format!(
-                    "The {beam} beam's tip drops {} m at k_B × 1 and {} m at × 100 (reference).",
+                    "The {beam}-beam's tip drops {} m at k_B × 1 and {} m at × 100 (reference).",
                     bold(soft),
                     bold(stiff)
                 ));
