@@ -146,3 +146,43 @@ fn a_mode_past_the_target_but_within_round_off_is_flagged() {
         );
     }
 }
+
+/// `modes --export` writes the very eigenproblem the analysis solves: read back, `K` and `M` give the
+/// same products as the assembled ones, and the lowest eigenvalue of the exported pencil (a dense
+/// solve) is the one shellwarp reports.
+#[test]
+fn the_exported_matrices_are_the_analysed_problem() {
+    use shellwarp::linalg::matrix_market::read_symmetric;
+    let dir = std::env::temp_dir().join(format!("shellwarp-export-{}", std::process::id()));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_shellwarp"))
+        .args(["modes", "--scene", "cantilever", "--modes", "4", "--json", "--export"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (n, k) = read_symmetric(&dir.join("K.mtx")).unwrap();
+    let (m_n, m) = read_symmetric(&dir.join("M.mtx")).unwrap();
+    assert_eq!((n, m_n), (3 * 195, 3 * 195), "free DOFs of the 205-vertex strip with 10 anchored");
+    let info: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("shellwarp.json")).unwrap()).unwrap();
+    // The same products as the assembled matrix.
+    let s = scene::load("cantilever", &[]).unwrap();
+    let masses = s.masses();
+    let p = ModalProblem { mesh: &s.mesh, anchors: &s.anchors, masses: &masses, stiffness: ShellStiffness::from(&s.scene.material), modes: 4, keep_rigid: false };
+    let sys = shellwarp::solver::modal::compute::system(&p).unwrap();
+    let x: Vec<f64> = (0..n).map(|i| (0.37 * i as f64).sin()).collect();
+    let mut assembled = vec![0.0; n];
+    sys.k.multiply(None, &x, &mut assembled);
+    let mut exported = vec![0.0; n];
+    k.iter().for_each(|&(i, j, v)| exported[i] += v * x[j]);
+    let scale = assembled.iter().map(|v| v.abs()).fold(0.0, f64::max);
+    assert!(assembled.iter().zip(&exported).all(|(a, b)| (a - b).abs() <= 1e-14 * scale));
+    assert!(m.iter().all(|&(i, j, v)| i == j && v == sys.mass[i]));
+    // The lowest eigenvalue of M^{-1/2} K M^{-1/2}, densely.
+    let mut dense = nalgebra::DMatrix::<f64>::zeros(n, n);
+    k.iter().for_each(|&(i, j, v)| dense[(i, j)] = v / (sys.mass[i] * sys.mass[j]).sqrt());
+    let lowest = dense.symmetric_eigen().eigenvalues.iter().copied().fold(f64::INFINITY, f64::min);
+    let reported = info["eigenvalues"][0].as_f64().unwrap();
+    assert!((lowest - reported).abs() <= 1e-8 * reported, "{lowest} vs {reported}");
+    assert!(info["shift"].as_f64().unwrap() < 0.0);
+    std::fs::remove_dir_all(dir).unwrap();
+}

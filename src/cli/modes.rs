@@ -20,6 +20,10 @@ pub struct ModesArgs {
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+    /// Also write the problem for other solvers: DIR/K.mtx and DIR/M.mtx (Matrix Market, free DOFs,
+    /// exactly what the analysis solves) and DIR/shellwarp.json (shift, tolerances, eigenvalues, times).
+    #[arg(long, value_name = "DIR")]
+    export: Option<std::path::PathBuf>,
 }
 
 #[derive(Debug, Serialize)]
@@ -61,6 +65,9 @@ pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
     let a = analyse(&problem, &|f| bar.set_position((f * 100.0) as u64))?;
     bar.finish_and_clear();
     let (t, above) = (a.timings, a.above_target());
+    if let Some(dir) = &args.export {
+        export(dir, &problem, &a)?;
+    }
     let report = Report {
         scene: setup.scene.name.clone(),
         vertices: setup.mesh.vertex_count(),
@@ -105,4 +112,45 @@ pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
         report.total_seconds * 1e3
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// What `--export` writes beside the matrices.
+#[derive(Debug, Serialize)]
+struct Exported {
+    dofs: usize,
+    modes: usize,
+    shift: f64,
+    lanczos_tolerance: f64,
+    target_residual: f64,
+    eigenvalues: Vec<f64>,
+    seconds: PrecomputeTimings,
+    total_seconds: f64,
+}
+
+/// Write K, M (Matrix Market) and the analysis' own figures into `dir`.
+fn export(dir: &std::path::Path, problem: &ModalProblem<'_>, a: &shellwarp::solver::modal::compute::ModalAnalysis) -> anyhow::Result<()> {
+    use anyhow::Context;
+    use shellwarp::linalg::matrix_market::{diagonal_text, symmetric_text};
+    use shellwarp::solver::modal::compute::{LANCZOS_TOLERANCE, TARGET_RESIDUAL, system};
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let sys = system(problem)?;
+    let note = "shellwarp modal analysis: free DOFs of the anchored shell, x/y/z of each free vertex in turn";
+    let write = |name: &str, text: String| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
+    };
+    write("K.mtx", symmetric_text(sys.k.matrix(), &format!("{note}\nK: exact rest stiffness, N/m")))?;
+    write("M.mtx", diagonal_text(&sys.mass, &format!("{note}\nM: lumped mass, kg")))?;
+    let t = a.timings;
+    let info = Exported {
+        dofs: sys.mass.len(),
+        modes: a.basis.modes(),
+        shift: sys.shift,
+        lanczos_tolerance: LANCZOS_TOLERANCE,
+        target_residual: TARGET_RESIDUAL,
+        eigenvalues: a.basis.eigenvalues.clone(),
+        seconds: t,
+        total_seconds: t.assembly + t.factorisation + t.eigen,
+    };
+    write("shellwarp.json", serde_json::to_string_pretty(&info)?)
 }

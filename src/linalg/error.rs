@@ -3,6 +3,9 @@
 /// Why a sparse operation failed.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 pub enum LinalgError {
+    /// A matrix file that cannot be read.
+    #[error("{0}")]
+    Input(String),
     /// The matrix is too large for the 32-bit value slots.
     #[error("sparse matrix with {0} stored entries is too large")]
     TooLarge(usize),

@@ -13,6 +13,7 @@ mod error;
 pub mod filtered_pcg;
 pub mod isa;
 pub mod lanczos;
+pub mod matrix_market;
 pub mod ordering;
 pub mod padded;
 

@@ -83,7 +83,7 @@ pub const MAX_RESIDUAL: f64 = 1e-8;
 
 /// The eigen iteration goes on until every pair's relative residual is below this (a decade under
 /// [`MAX_RESIDUAL`]), or has stopped improving (round-off), once the transformed problem has converged.
-const TARGET_RESIDUAL: f64 = 1e-9;
+pub const TARGET_RESIDUAL: f64 = 1e-9;
 
 /// Vectors per Lanczos block. One pass over the Cholesky factor solves them all for little more than
 /// the cost of one (the single-vector solve is memory bound: 114 MB of factor per pass on the
@@ -94,19 +94,46 @@ fn numerical(e: impl std::fmt::Display) -> SolverError {
     SolverError::Numerical(e.to_string())
 }
 
+/// The generalised eigenproblem `K φ = λ M φ` of a modal problem, as the analysis solves it.
+pub struct ModalSystem {
+    /// The exact rest stiffness over the free DOFs (anchored vertices removed), both triangles.
+    pub k: BlockAssembler,
+    /// The lumped mass of each free DOF, kg.
+    pub mass: Vec<f64>,
+    /// The shift `σ` of the shift-invert iteration (negative, below the spectrum).
+    pub shift: f64,
+    /// Which vertices the DOFs belong to.
+    pub dofs: DofMap,
+}
+
+/// Assemble the stiffness and mass of `problem` and choose the eigen solver's shift: a millionth of
+/// the mean diagonal ratio `K_ii / M_ii`, negative (below the elastic spectrum, and below the zero
+/// modes of a free shell, so `K − σM` is positive definite).
+pub fn system(problem: &ModalProblem<'_>) -> Result<ModalSystem, SolverError> {
+    let mesh = problem.mesh;
+    let shell = DiscreteShell::new(mesh, problem.stiffness).map_err(numerical)?;
+    let mut fixed = vec![false; mesh.vertex_count()];
+    problem.anchors.iter().for_each(|&a| fixed[a] = true);
+    let dofs = DofMap::without(&fixed);
+    let mut k = BlockAssembler::for_shell(&shell, &dofs).map_err(numerical)?;
+    k.assemble_shell(&shell, mesh.positions(), HessianMode::Exact);
+    let mass: Vec<f64> = dofs.free_vertices().iter().flat_map(|&v| [problem.masses[v]; 3]).collect();
+    let dim = mass.len().max(1);
+    let mean_ratio = (0..mass.len()).map(|i| k_values_diag(&k, i) / mass[i]).sum::<f64>() / dim as f64;
+    let shift = -1e-6 * mean_ratio.max(f64::MIN_POSITIVE);
+    Ok(ModalSystem { k, mass, shift, dofs })
+}
+
+/// The relative tolerance the Lanczos iteration converges the transformed problem to.
+pub const LANCZOS_TOLERANCE: f64 = 1e-13;
+
 /// Run the modal analysis, reporting progress in `[0, 1]` through `progress`.
 pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<ModalAnalysis, SolverError> {
     let mesh = problem.mesh;
     let n = mesh.vertex_count();
     let t0 = Instant::now();
-    let shell = DiscreteShell::new(mesh, problem.stiffness).map_err(numerical)?;
-    let mut fixed = vec![false; n];
-    problem.anchors.iter().for_each(|&a| fixed[a] = true);
-    let dofs = DofMap::without(&fixed);
-    let mut k = BlockAssembler::for_shell(&shell, &dofs).map_err(numerical)?;
-    k.assemble_shell(&shell, mesh.positions(), HessianMode::Exact);
+    let ModalSystem { mut k, mass, shift, dofs } = system(problem)?;
     let k_values = k.values().to_vec();
-    let mass: Vec<f64> = dofs.free_vertices().iter().flat_map(|&v| [problem.masses[v]; 3]).collect();
     let dim = mass.len();
     let free = problem.anchors.is_empty();
     let wanted = problem.modes + if free { 6 } else { 0 };
@@ -116,9 +143,6 @@ pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<Mod
             reason: format!("{} modes asked of a shell with {dim} free DOFs", problem.modes),
         });
     }
-    // A shift well below the elastic spectrum: a millionth of the mean diagonal ratio K_ii / M_ii.
-    let mean_ratio = (0..dim).map(|i| k_values_diag(&k, i) / mass[i]).sum::<f64>() / dim as f64;
-    let shift = -1e-6 * mean_ratio.max(f64::MIN_POSITIVE);
     k.add_diagonal(&mass.iter().map(|m| -shift * m).collect::<Vec<_>>());
     let assembly = t0.elapsed().as_secs_f64();
     progress(0.1);
@@ -144,7 +168,7 @@ pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<Mod
         if k2 > 0.0 { (r2 / k2).sqrt() } else { r2.sqrt() }
     };
     let options =
-        LanczosOptions { shift, tolerance: 1e-13, target: TARGET_RESIDUAL, block: EIGEN_BLOCK, ..Default::default() };
+        LanczosOptions { shift, tolerance: LANCZOS_TOLERANCE, target: TARGET_RESIDUAL, block: EIGEN_BLOCK, ..Default::default() };
     let solve = |x: &mut [f64], b: usize| chol.solve_many(x, b).map_err(|e| e.to_string());
     let pairs = lowest_modes(&mass, wanted, solve, relative_residual, options).map_err(numerical)?;
     progress(0.9);
