@@ -167,7 +167,14 @@ fn the_exported_matrices_are_the_analysed_problem() {
     // The same products as the assembled matrix.
     let s = scene::load("cantilever", &[]).unwrap();
     let masses = s.masses();
-    let p = ModalProblem { mesh: &s.mesh, anchors: &s.anchors, masses: &masses, stiffness: ShellStiffness::from(&s.scene.material), modes: 4, keep_rigid: false };
+    let p = ModalProblem {
+        mesh: &s.mesh,
+        anchors: &s.anchors,
+        masses: &masses,
+        stiffness: ShellStiffness::from(&s.scene.material),
+        modes: 4,
+        keep_rigid: false,
+    };
     let sys = shellwarp::solver::modal::compute::system(&p).unwrap();
     let x: Vec<f64> = (0..n).map(|i| (0.37 * i as f64).sin()).collect();
     let mut assembled = vec![0.0; n];

@@ -128,7 +128,11 @@ struct Exported {
 }
 
 /// Write K, M (Matrix Market) and the analysis' own figures into `dir`.
-fn export(dir: &std::path::Path, problem: &ModalProblem<'_>, a: &shellwarp::solver::modal::compute::ModalAnalysis) -> anyhow::Result<()> {
+fn export(
+    dir: &std::path::Path,
+    problem: &ModalProblem<'_>,
+    a: &shellwarp::solver::modal::compute::ModalAnalysis,
+) -> anyhow::Result<()> {
     use anyhow::Context;
     use shellwarp::linalg::matrix_market::{diagonal_text, symmetric_text};
     use shellwarp::solver::modal::compute::{LANCZOS_TOLERANCE, TARGET_RESIDUAL, system};

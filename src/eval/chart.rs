@@ -79,6 +79,8 @@ pub enum Style {
     Dashed,
     /// Markers only.
     Points,
+    /// A dashed line without markers (a front or a guide over other series' markers).
+    Guide,
 }
 
 /// One named series of points.
@@ -138,6 +140,35 @@ impl Plot {
         })
     }
 
+    /// The corner of the plot with the fewest points, for the legend.
+    fn emptiest_corner(&self) -> SeriesLabelPosition {
+        let points: Vec<(f64, f64)> = self.series.iter().flat_map(|s| s.points.iter().copied()).collect();
+        let scale = |v: f64, log: bool| if log { v.max(f64::MIN_POSITIVE).ln() } else { v };
+        let xs = extent(points.iter().map(|p| p.0), self.x.log);
+        let ys = extent(points.iter().map(|p| p.1), self.y.log);
+        let frac = |v: f64, r: &Range<f64>, log: bool| {
+            (scale(v, log) - scale(r.start, log)) / (scale(r.end, log) - scale(r.start, log)).max(f64::MIN_POSITIVE)
+        };
+        let count = |right: bool, top: bool| {
+            points
+                .iter()
+                .filter(|p| {
+                    let (fx, fy) = (frac(p.0, &xs, self.x.log), frac(p.1, &ys, self.y.log));
+                    (if right { fx > 0.6 } else { fx < 0.4 }) && (if top { fy > 0.55 } else { fy < 0.45 })
+                })
+                .count()
+        };
+        [
+            (SeriesLabelPosition::UpperLeft, count(false, true)),
+            (SeriesLabelPosition::UpperRight, count(true, true)),
+            (SeriesLabelPosition::LowerLeft, count(false, false)),
+            (SeriesLabelPosition::LowerRight, count(true, false)),
+        ]
+        .into_iter()
+        .min_by_key(|c| c.1)
+        .map_or(SeriesLabelPosition::UpperLeft, |c| c.0)
+    }
+
     fn draw<X, Y>(&self, root: &Root, x: X, y: Y) -> Result<(), String>
     where
         X: AsRangedCoord<Value = f64>,
@@ -179,6 +210,14 @@ impl Plot {
                     chart.draw_series(DashedLineSeries::new(pts.clone(), 8, 5, line)).map_err(|x| e(&x))?;
                 }
                 Style::Points => {}
+                Style::Guide => {
+                    chart
+                        .draw_series(DashedLineSeries::new(pts.clone(), 8, 5, line))
+                        .map_err(|x| e(&x))?
+                        .label(&s.label)
+                        .legend(move |(x, y)| PathElement::new(vec![(x - 8, y), (x + 8, y)], color.stroke_width(2)));
+                    continue;
+                }
             }
             chart
                 .draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled())))
@@ -192,7 +231,7 @@ impl Plot {
         }
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
+            .position(self.emptiest_corner())
             .label_font((FONT, 15))
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(160, 160, 160))
@@ -276,10 +315,15 @@ impl Maps {
                 .margin(6)
                 .x_label_area_size(40)
                 .y_label_area_size(48)
-                .build_cartesian_2d((0..nx).into_segmented(), (0..ny).into_segmented())
+                // A segmented `0..n` range holds the segments 0 to n inclusive: one more than wanted.
+                .build_cartesian_2d((0..nx - 1).into_segmented(), (0..ny - 1).into_segmented())
                 .map_err(|x| e(&x))?;
-            let label = |labels: &[String], v: &SegmentValue<u32>| match v {
-                SegmentValue::CenterOf(i) => labels.get(*i as usize).cloned().unwrap_or_default(),
+            // At most about six labels along x (every k-th column).
+            let every = panel.columns.len().div_ceil(6).max(1);
+            let label = |labels: &[String], v: &SegmentValue<u32>, every: usize| match v {
+                SegmentValue::CenterOf(i) if (*i as usize).is_multiple_of(every) => {
+                    labels.get(*i as usize).cloned().unwrap_or_default()
+                }
                 _ => String::new(),
             };
             chart
@@ -287,8 +331,8 @@ impl Maps {
                 .disable_mesh()
                 .x_labels(nx as usize)
                 .y_labels(ny as usize)
-                .x_label_formatter(&|v| label(&panel.columns, v))
-                .y_label_formatter(&|v| label(&panel.rows, v))
+                .x_label_formatter(&|v| label(&panel.columns, v, every))
+                .y_label_formatter(&|v| label(&panel.rows, v, 1))
                 .x_desc(&self.x_label)
                 .y_desc(&self.y_label)
                 .label_style((FONT, 12))
@@ -350,14 +394,16 @@ impl Bars {
     fn draw(&self, root: &Root) -> Result<(), String> {
         let e = |e: &dyn std::fmt::Display| e.to_string();
         let values = self.groups.iter().flat_map(|g| g.1.iter().map(|b| b.1));
-        let yr = extent(values, true);
+        // Bars rise from 1 (no speed-up) or from below the smallest value.
+        let padded = extent(values, true);
+        let yr = padded.start.min(1.0)..padded.end;
         let n = self.groups.len().max(1) as u32;
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, (FONT, 24))
             .margin(16)
             .x_label_area_size(56)
             .y_label_area_size(86)
-            .build_cartesian_2d((0..n).into_segmented(), yr.clone().log_scale())
+            .build_cartesian_2d((0..n - 1).into_segmented(), yr.clone().log_scale())
             .map_err(|x| e(&x))?;
         let labels: Vec<String> = self.groups.iter().map(|g| g.0.clone()).collect();
         chart
@@ -389,7 +435,7 @@ impl Bars {
                 let (_, bottom) = pixel(gi as u32, yr.start);
                 root.draw(&Rectangle::new([(x0, top), (x0 + width as i32 - 2, bottom)], color.filled()))
                     .map_err(|x| e(&x))?;
-                let text = format!("{label}: {}", tick(*value));
+                let text = format!("{label}: {}", super::report::number(*value));
                 root.draw(&Text::new(text, (x0, top - 16), (FONT, 13))).map_err(|x| e(&x))?;
             }
         }

@@ -54,8 +54,12 @@ pub fn read_symmetric(path: &Path) -> Result<(usize, Vec<(usize, usize, f64)>), 
         return Err(bad(format!("not a coordinate real symmetric matrix: `{header}`")));
     }
     let mut data = lines.filter(|l| !l.starts_with('%') && !l.trim().is_empty());
-    let size: Vec<usize> =
-        data.next().unwrap_or_default().split_whitespace().map(|w| w.parse().map_err(|_| bad(format!("size `{w}`")))).collect::<Result<_, _>>()?;
+    let size: Vec<usize> = data
+        .next()
+        .unwrap_or_default()
+        .split_whitespace()
+        .map(|w| w.parse().map_err(|_| bad(format!("size `{w}`"))))
+        .collect::<Result<_, _>>()?;
     let [n, m, count] = size[..] else { return Err(bad("the size line needs three numbers".into())) };
     if n != m {
         return Err(bad(format!("{n} × {m} is not square")));
@@ -64,7 +68,9 @@ pub fn read_symmetric(path: &Path) -> Result<(usize, Vec<(usize, usize, f64)>), 
     for line in data {
         let w: Vec<&str> = line.split_whitespace().collect();
         let [i, j, v] = w[..] else { return Err(bad(format!("entry `{line}`"))) };
-        let parse = |s: &str| s.parse::<usize>().ok().filter(|&k| (1..=n).contains(&k)).ok_or_else(|| bad(format!("index `{s}`")));
+        let parse = |s: &str| {
+            s.parse::<usize>().ok().filter(|&k| (1..=n).contains(&k)).ok_or_else(|| bad(format!("index `{s}`")))
+        };
         let (i, j) = (parse(i)? - 1, parse(j)? - 1);
         let v: f64 = v.parse().map_err(|_| bad(format!("value `{v}`")))?;
         entries.push((i, j, v));

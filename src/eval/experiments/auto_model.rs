@@ -235,7 +235,7 @@ impl Experiment for AutoModel {
             series.push(Series {
                 label: "estimate = truth".into(),
                 color: plotters::style::RGBColor(0, 0, 0),
-                style: Style::Dashed,
+                style: Style::Guide,
                 points: vec![(span.0, span.0), (span.1, span.1)],
             });
         }

@@ -230,7 +230,7 @@ impl Experiment for Pareto {
             series.push(Series {
                 label: "Pareto front".into(),
                 color: plotters::style::RGBColor(0, 0, 0),
-                style: Style::Dashed,
+                style: Style::Guide,
                 points: front.iter().map(|&i| point(i)).collect(),
             });
             let file = format!("{}-{family}.png", self.name());

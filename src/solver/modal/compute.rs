@@ -167,8 +167,13 @@ pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<Mod
         let k2: f64 = kphi.iter().map(|x| x * x).sum();
         if k2 > 0.0 { (r2 / k2).sqrt() } else { r2.sqrt() }
     };
-    let options =
-        LanczosOptions { shift, tolerance: LANCZOS_TOLERANCE, target: TARGET_RESIDUAL, block: EIGEN_BLOCK, ..Default::default() };
+    let options = LanczosOptions {
+        shift,
+        tolerance: LANCZOS_TOLERANCE,
+        target: TARGET_RESIDUAL,
+        block: EIGEN_BLOCK,
+        ..Default::default()
+    };
     let solve = |x: &mut [f64], b: usize| chol.solve_many(x, b).map_err(|e| e.to_string());
     let pairs = lowest_modes(&mass, wanted, solve, relative_residual, options).map_err(numerical)?;
     progress(0.9);
