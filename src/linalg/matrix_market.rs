@@ -43,9 +43,11 @@ pub fn diagonal_text(d: &[f64], comment: &str) -> String {
     s
 }
 
-/// Read a `coordinate real symmetric` file: its size and the entries of both triangles (zero-based
-/// `(row, column, value)`).
-pub fn read_symmetric(path: &Path) -> Result<(usize, Vec<(usize, usize, f64)>), LinalgError> {
+/// One stored entry: zero-based `(row, column, value)`.
+pub type Entry = (usize, usize, f64);
+
+/// Read a `coordinate real symmetric` file: its size and the entries of both triangles.
+pub fn read_symmetric(path: &Path) -> Result<(usize, Vec<Entry>), LinalgError> {
     let bad = |why: String| LinalgError::Input(format!("{}: {why}", path.display()));
     let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
     let mut lines = text.lines();
