@@ -37,12 +37,14 @@ const COLUMNS: &[Column] = &[
 
 /// The scenes and their gravity sweeps (m/s²), small loads to collapse.
 const SWEEPS: [(&str, &[f64]); 2] = [
-    ("cantilever", &[1.0, 2.5, 5.0, 10.0, 20.0, 40.0, 70.0, 100.0]),
+    // From 2 m/s²: below it the reference's relative residual is at the f64 round-off floor (about
+    // 1e-8 at 1 m/s², where the load is tiny against the stiffness).
+    ("cantilever", &[2.0, 5.0, 10.0, 20.0, 35.0, 50.0, 70.0, 100.0]),
     ("v-beam", &[50.0, 100.0, 200.0, 400.0, 800.0, 1200.0, 1600.0, 2400.0]),
 ];
 
 /// The quick sweep: three levels of each.
-const QUICK: [(&str, &[f64]); 2] = [("cantilever", &[2.5, 20.0, 100.0]), ("v-beam", &[100.0, 800.0, 2400.0])];
+const QUICK: [(&str, &[f64]); 2] = [("cantilever", &[5.0, 20.0, 100.0]), ("v-beam", &[100.0, 800.0, 2400.0])];
 
 /// The compared dynamic methods, run to rest.
 pub const METHODS: [&str; 4] = ["lma", "mwts", "ds-implicit", "ds"];
