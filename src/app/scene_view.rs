@@ -1,7 +1,7 @@
 //! Turning a scene and a solver state into a render [`Frame`]: the one place that decides how a
 //! simulation looks, shared by the window, the headless `render` command and the evaluator.
 
-use glam::{DVec3, Vec3};
+use glam::{DQuat, DVec3, Vec3};
 
 use super::gizmo;
 use crate::collision::{Motion, Shape};
@@ -46,13 +46,13 @@ pub struct ViewOptions {
 enum ColliderDraw {
     /// A body that never moves, drawn where it is.
     Still(MeshDraw),
-    /// A moving body: its geometry in the body frame, placed by its motion from `origin` each frame.
-    Moving { local: MeshDraw, origin: DVec3, motion: Motion },
+    /// A moving body: its geometry in the body frame, placed each frame by its scripted motion from
+    /// `origin` and `orientation` (or, for a dynamic body, by the pose the solver reports).
+    Moving { local: MeshDraw, origin: DVec3, orientation: DQuat, motion: Motion, dynamic: bool },
 }
 
-/// `local` moved to the pose at time `t` of a frame that `motion` takes from `origin`.
-fn placed(local: &MeshDraw, origin: DVec3, motion: &Motion, t: f64) -> MeshDraw {
-    let (centre, rotation) = motion.pose(origin, t);
+/// `local` moved to the pose `(centre, rotation)`.
+fn placed(local: &MeshDraw, (centre, rotation): (DVec3, DQuat)) -> MeshDraw {
     let (c, r) = (centre.as_vec3(), rotation.as_quat());
     MeshDraw {
         positions: local.positions.iter().map(|&p| (r * Vec3::from(p) + c).to_array()).collect(),
@@ -119,11 +119,14 @@ impl SceneView {
                     }
                     draw
                 }
+                Shape::Cuboid { half } => cuboid_draw(*half - DVec3::splat(INSET)),
             };
-            colliders.push(if body.is_moving() {
-                ColliderDraw::Moving { local, origin: body.origin, motion: body.motion }
+            let dynamic = body.mass.is_some();
+            colliders.push(if body.is_moving() || dynamic {
+                let (origin, orientation, motion) = (body.origin, body.orientation, body.motion);
+                ColliderDraw::Moving { local, origin, orientation, motion, dynamic }
             } else {
-                ColliderDraw::Still(placed(&local, body.origin, &body.motion, 0.0))
+                ColliderDraw::Still(placed(&local, body.pose(0.0)))
             });
         }
         Self {
@@ -154,13 +157,37 @@ impl SceneView {
         drags: &[(DragId, Drag)],
         options: ViewOptions,
     ) -> Frame {
+        self.frame_with_bodies(camera, positions, time, drags, options, &[])
+    }
+
+    /// [`SceneView::frame`] with the colliders at the poses a solver reports ([`Solver::body_poses`],
+    /// in the scene's order; empty: every collider by its scripted motion, dynamic ones where they
+    /// start).
+    ///
+    /// [`Solver::body_poses`]: crate::solver::Solver::body_poses
+    pub fn frame_with_bodies(
+        &self,
+        camera: Camera,
+        positions: &[DVec3],
+        time: f64,
+        drags: &[(DragId, Drag)],
+        options: ViewOptions,
+        poses: &[(DVec3, DQuat)],
+    ) -> Frame {
         let mut frame = Frame::new(camera);
         let spacing = nice_spacing(self.grid_extent / 10.0);
         frame.ground_grid(self.grid_height, self.grid_extent, spacing, GRID);
-        for c in &self.colliders {
+        for (i, c) in self.colliders.iter().enumerate() {
             frame.meshes.push(match c {
                 ColliderDraw::Still(draw) => draw.clone(),
-                ColliderDraw::Moving { local, origin, motion } => placed(local, *origin, motion, time),
+                ColliderDraw::Moving { local, .. } if i < poses.len() => placed(local, poses[i]),
+                ColliderDraw::Moving { local, origin, orientation, dynamic: true, .. } => {
+                    placed(local, (*origin, *orientation))
+                }
+                ColliderDraw::Moving { local, origin, orientation, motion, .. } => {
+                    let (centre, spin) = motion.pose(*origin, time);
+                    placed(local, (centre, spin * *orientation))
+                }
             });
         }
         let mut surface = MeshDraw::from_positions(
@@ -218,6 +245,27 @@ impl SceneView {
             }
         }
     }
+}
+
+/// A box of half extents `half` with flat faces (four vertices of its own per face).
+fn cuboid_draw(half: DVec3) -> MeshDraw {
+    let mut positions = Vec::with_capacity(24);
+    let mut triangles = Vec::with_capacity(12);
+    for axis in 0..3 {
+        for sign in [-1.0, 1.0] {
+            let mut n = DVec3::ZERO;
+            n[axis] = sign;
+            let (u, v) = (DVec3::AXES[(axis + 1) % 3], DVec3::AXES[(axis + 2) % 3]);
+            let base = positions.len();
+            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                positions.push((n + u * a + v * b) * half);
+            }
+            // Counter-clockwise seen from outside: u × v is +n for the positive face.
+            let quad = if sign > 0.0 { [[0, 1, 2], [0, 2, 3]] } else { [[0, 2, 1], [0, 3, 2]] };
+            triangles.extend(quad.map(|t| t.map(|k| base + k)));
+        }
+    }
+    mesh_draw(&positions, &triangles, COLLIDER, COLLIDER)
 }
 
 fn triangles_u32(t: &[[usize; 3]]) -> Vec<[u32; 3]> {

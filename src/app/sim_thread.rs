@@ -59,6 +59,8 @@ pub struct Snapshot {
     pub progress: Option<Progress>,
     /// The reference ghost at the same time, if one runs.
     pub ghost: Option<GhostView>,
+    /// The colliders' poses when the solver moves them (dynamic bodies), see [`Solver::body_poses`].
+    pub bodies: Vec<(DVec3, glam::DQuat)>,
 }
 
 /// A request to the simulation thread.
@@ -212,6 +214,7 @@ impl SimLoop {
             last_error: self.last_error.clone(),
             progress: solver.progress(),
             ghost: self.ghost.as_ref().map(Ghost::view),
+            bodies: solver.body_poses(),
         }
     }
 

@@ -390,8 +390,14 @@ impl Running {
         let paint = self.panel(&snapshot);
         let camera = self.orbit.camera();
         let options_view = ViewOptions { wireframe: self.panel.wireframe };
-        let mut frame =
-            self.view.frame(camera, &snapshot.positions, snapshot.stats.sim_time, &snapshot.drags, options_view);
+        let mut frame = self.view.frame_with_bodies(
+            camera,
+            &snapshot.positions,
+            snapshot.stats.sim_time,
+            &snapshot.drags,
+            options_view,
+            &snapshot.bodies,
+        );
         if let Some(g) = &snapshot.ghost {
             self.view.ghost_lines(&mut frame, &g.positions);
         }

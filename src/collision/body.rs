@@ -19,6 +19,48 @@ pub enum Shape {
     },
     /// A closed triangle mesh (solid inside).
     Mesh(Box<MeshDistance>),
+    /// A box centred on the origin with these half extents along the body axes.
+    Cuboid {
+        /// Half of each side, m.
+        half: DVec3,
+    },
+}
+
+impl Shape {
+    /// Signed distance and outward unit normal at `p` in the body frame.
+    pub fn surface(&self, p: DVec3) -> (f64, DVec3) {
+        match self {
+            Shape::Sphere { radius } => {
+                let r = p.length();
+                (r - radius, if r > 0.0 { p / r } else { DVec3::Y })
+            }
+            Shape::Plane { normal } => (p.dot(*normal), *normal),
+            Shape::Mesh(mesh) => mesh.signed_distance(p),
+            Shape::Cuboid { half } => box_surface(*half, p),
+        }
+    }
+}
+
+/// Signed distance and outward normal of a box of half extents `half` at `p`: outside, the distance
+/// to the nearest surface point; inside, minus the distance to the nearest face.
+fn box_surface(half: DVec3, p: DVec3) -> (f64, DVec3) {
+    let q = p.abs() - half;
+    let outside = q.max(DVec3::ZERO);
+    let sign = DVec3::select(p.cmplt(DVec3::ZERO), DVec3::NEG_ONE, DVec3::ONE);
+    if outside.length_squared() > 0.0 {
+        let d = outside.length();
+        return (d, (outside * sign) / d);
+    }
+    let axis = if q.x >= q.y && q.x >= q.z {
+        0
+    } else if q.y >= q.z {
+        1
+    } else {
+        2
+    };
+    let mut n = DVec3::ZERO;
+    n[axis] = sign[axis];
+    (q[axis], n)
 }
 
 /// A scripted rigid motion: `c(t) = c₀ + v t + A sin(2π f t)` and a constant spin `ω` about `c(t)`.
@@ -52,8 +94,13 @@ pub struct Body {
     pub shape: Shape,
     /// Position of the body frame's origin at `t = 0`.
     pub origin: DVec3,
+    /// Orientation of the body frame at `t = 0`.
+    pub orientation: DQuat,
     /// How it moves.
     pub motion: Motion,
+    /// A dynamic body's mass, kg (the position-based methods integrate it; others hold it still at
+    /// its initial pose); `None`: the body follows its scripted motion.
+    pub mass: Option<f64>,
 }
 
 impl Motion {
@@ -66,23 +113,36 @@ impl Motion {
 }
 
 impl Body {
-    /// The body frame's origin and rotation at time `t`.
-    pub fn pose(&self, t: f64) -> (DVec3, DQuat) {
-        self.motion.pose(self.origin, t)
+    /// A scripted body of this shape at `origin`, unrotated, following `motion`.
+    pub fn scripted(shape: Shape, origin: DVec3, motion: Motion) -> Self {
+        Self { shape, origin, orientation: DQuat::IDENTITY, motion, mass: None }
     }
 
-    /// Velocity of the body frame's origin at time `t`.
+    /// The body frame's origin and rotation at time `t` (a dynamic body: its initial pose).
+    pub fn pose(&self, t: f64) -> (DVec3, DQuat) {
+        if self.mass.is_some() {
+            return (self.origin, self.orientation);
+        }
+        let (centre, spin) = self.motion.pose(self.origin, t);
+        (centre, spin * self.orientation)
+    }
+
+    /// Velocity of the body frame's origin at time `t` (a dynamic body: zero, it is held).
     fn origin_velocity(&self, t: f64) -> DVec3 {
+        if self.mass.is_some() {
+            return DVec3::ZERO;
+        }
         let m = &self.motion;
         let w = std::f64::consts::TAU * m.frequency;
         m.velocity + m.amplitude * (w * (w * t).cos())
     }
 
-    /// Whether the body ever moves.
+    /// Whether the body ever moves by its script.
     pub fn is_moving(&self) -> bool {
-        self.motion.velocity != DVec3::ZERO
-            || self.motion.spin != DVec3::ZERO
-            || (self.motion.amplitude != DVec3::ZERO && self.motion.frequency != 0.0)
+        self.mass.is_none()
+            && (self.motion.velocity != DVec3::ZERO
+                || self.motion.spin != DVec3::ZERO
+                || (self.motion.amplitude != DVec3::ZERO && self.motion.frequency != 0.0))
     }
 
     /// Signed distance, outward normal and body velocity at world point `x` and time `t`.
@@ -118,22 +178,16 @@ impl Placed<'_> {
     /// Signed distance and outward normal (world frame) at world point `x`.
     #[inline]
     pub fn surface(&self, x: DVec3) -> (f64, DVec3) {
-        let local = self.inverse * (x - self.centre);
-        let (distance, normal) = match &self.body.shape {
-            Shape::Sphere { radius } => {
-                let r = local.length();
-                let n = if r > 0.0 { local / r } else { DVec3::Y };
-                (r - radius, n)
-            }
-            Shape::Plane { normal } => (local.dot(*normal), *normal),
-            Shape::Mesh(mesh) => mesh.signed_distance(local),
-        };
+        let (distance, normal) = self.body.shape.surface(self.inverse * (x - self.centre));
         (distance, self.rotation * normal)
     }
 
     /// Velocity of the body's material at world point `x`.
     #[inline]
     pub fn velocity_at(&self, x: DVec3) -> DVec3 {
+        if self.body.mass.is_some() {
+            return DVec3::ZERO;
+        }
         self.velocity + self.body.motion.spin.cross(x - self.centre)
     }
 }
@@ -144,11 +198,11 @@ mod tests {
 
     #[test]
     fn spinning_moving_sphere_reports_distance_normal_and_surface_velocity() {
-        let body = Body {
-            shape: Shape::Sphere { radius: 0.5 },
-            origin: DVec3::new(0.0, 1.0, 0.0),
-            motion: Motion { velocity: DVec3::X, spin: DVec3::new(0.0, 2.0, 0.0), ..Motion::default() },
-        };
+        let body = Body::scripted(
+            Shape::Sphere { radius: 0.5 },
+            DVec3::new(0.0, 1.0, 0.0),
+            Motion { velocity: DVec3::X, spin: DVec3::new(0.0, 2.0, 0.0), ..Motion::default() },
+        );
         let t = 0.5;
         let x = DVec3::new(0.5 + 0.8, 1.0, 0.0); // 0.8 from the centre, which is at x = 0.5 now
         let c = body.contact(x, t);
@@ -169,14 +223,30 @@ mod tests {
 
     #[test]
     fn oscillating_plane_moves_its_surface() {
-        let body = Body {
-            shape: Shape::Plane { normal: DVec3::Y },
-            origin: DVec3::ZERO,
-            motion: Motion { amplitude: DVec3::new(0.0, 0.1, 0.0), frequency: 1.0, ..Motion::default() },
-        };
+        let body = Body::scripted(
+            Shape::Plane { normal: DVec3::Y },
+            DVec3::ZERO,
+            Motion { amplitude: DVec3::new(0.0, 0.1, 0.0), frequency: 1.0, ..Motion::default() },
+        );
         let c = body.contact(DVec3::new(3.0, 0.2, 1.0), 0.25); // the plane is at y = 0.1
         assert!((c.distance - 0.1).abs() < 1e-12);
         assert!(c.velocity.length() < 1e-9, "at the top of its swing: {:?}", c.velocity);
         assert!(body.is_moving());
+    }
+
+    #[test]
+    fn a_turned_box_reports_distances_and_normals_of_its_faces_edges_and_inside() {
+        let turn = DQuat::from_rotation_y(std::f64::consts::FRAC_PI_2);
+        let body = Body {
+            orientation: turn,
+            ..Body::scripted(Shape::Cuboid { half: DVec3::new(1.0, 0.5, 0.25) }, DVec3::Y, Motion::default())
+        };
+        // The long axis (body x) now lies along world −z.
+        let face = body.contact(DVec3::new(0.0, 1.0, -1.5), 0.0);
+        assert!((face.distance - 0.5).abs() < 1e-12 && (face.normal - DVec3::NEG_Z).length() < 1e-12, "{face:?}");
+        let inside = body.contact(DVec3::new(0.0, 1.4, 0.0), 0.0);
+        assert!((inside.distance + 0.1).abs() < 1e-12 && (inside.normal - DVec3::Y).length() < 1e-12, "{inside:?}");
+        let edge = body.contact(DVec3::new(0.0, 2.5, -2.0), 0.0);
+        assert!((edge.distance - 2f64.sqrt()).abs() < 1e-12, "{edge:?}");
     }
 }

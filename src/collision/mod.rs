@@ -4,9 +4,11 @@
 
 mod body;
 mod mesh_distance;
+mod spatial_hash;
 
 pub use body::{Body, Contact, Motion, Placed, Shape};
 pub use mesh_distance::MeshDistance;
+pub use spatial_hash::SpatialHash;
 
 /// Why a body could not be made.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]

@@ -5,6 +5,7 @@
 //! per-element terms in [`stretch`] (edge length, triangle area) and [`hinge`] (dihedral angle).
 //! The cloth's particle springs (Choi & Ko's stretch and buckling springs) are in [`springs`].
 
+pub mod constraints;
 mod error;
 pub mod hinge;
 pub mod shell;

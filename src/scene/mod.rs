@@ -14,6 +14,7 @@ pub use builtin::{BUILTIN, builtin_names};
 pub use error::SceneError;
 pub use schema::{
     Aabb, CameraSpec, Collider, Load, Material, MeshSource, Motion, Part, Placement, Scene, Selection, SolverSettings,
+    WindSpec,
 };
 pub use script::{Joint, Key, Skeleton, Track};
 pub use setup::Setup;

@@ -43,6 +43,9 @@ pub struct Scene {
     /// Parts simulated each by its own method and settings (connected components of the mesh).
     #[serde(default)]
     pub parts: Vec<Part>,
+    /// Wind on every method (calm by default).
+    #[serde(default)]
+    pub wind: WindSpec,
     /// Method and its numerical settings.
     pub solver: SolverSettings,
     /// Initial view.
@@ -170,6 +173,18 @@ pub struct Material {
     pub mu_s: f64,
     /// Kinetic (sliding) friction coefficient between the mesh and colliders.
     pub mu_k: f64,
+    /// Position-based cloth (`pbd`): stretch stiffness `k ∈ [0, 1]` per iteration set (Müller 2007).
+    pub pbd_stretch: f64,
+    /// Position-based cloth (`pbd`): bending stiffness `k ∈ [0, 1]`.
+    pub pbd_bend: f64,
+    /// `xpbd`: compliance of the edge-length constraints, m/N (absent: `1/k_s`, the cloth's springs).
+    pub compliance_stretch: Option<f64>,
+    /// `xpbd`: compliance of the bending constraints, 1/(N·m) per hinge (absent: from `k_b`, the
+    /// energy `k_b (θ − θ̄)² |e|/h̄` of the discrete shell's hinge).
+    pub compliance_bend: Option<f64>,
+    /// Balloon: the enclosed volume is held at `k_pressure` times the rest volume (a closed mesh only;
+    /// absent: no volume constraint).
+    pub k_pressure: Option<f64>,
 }
 
 impl Default for Material {
@@ -185,6 +200,11 @@ impl Default for Material {
             k_d: 2.0e-3,
             mu_s: 0.0,
             mu_k: 0.0,
+            pbd_stretch: 1.0,
+            pbd_bend: 0.1,
+            compliance_stretch: None,
+            compliance_bend: None,
+            k_pressure: None,
         }
     }
 }
@@ -235,6 +255,26 @@ pub enum Collider {
         /// How it moves (still if absent).
         #[serde(default)]
         motion: Motion,
+        /// A mass (kg) makes it a dynamic body for the position-based methods: it falls, rolls and is
+        /// pushed by the cloth (its `motion` is then its initial velocity and spin).
+        #[serde(default)]
+        mass: Option<f64>,
+    },
+    /// A box.
+    Box {
+        /// Centre at t = 0, metres.
+        center: [f64; 3],
+        /// Half of each side, metres.
+        half_extents: [f64; 3],
+        /// Rotation (Euler XYZ, degrees) at t = 0.
+        #[serde(default)]
+        rotate_deg: [f64; 3],
+        /// How it moves (still if absent).
+        #[serde(default)]
+        motion: Motion,
+        /// A mass (kg) makes it a dynamic body (see the sphere's).
+        #[serde(default)]
+        mass: Option<f64>,
     },
     /// An infinite plane; the mesh stays on the side the normal points to.
     Plane {
@@ -366,6 +406,45 @@ pub struct SolverSettings {
     /// default 1e-2 if absent). Smaller follows drags and tracks more tightly.
     #[serde(default)]
     pub constraint_damping: Option<f64>,
+    /// Position-based methods: substeps per step (`xpbd`; `pbd` takes one).
+    #[serde(default = "default_substeps")]
+    pub substeps: usize,
+    /// Position-based methods: keep the cloth from passing through itself.
+    #[serde(default)]
+    pub self_collision: bool,
+    /// Position-based methods: the cloth's collision thickness, metres (absent: a tenth of the mean
+    /// edge length).
+    #[serde(default)]
+    pub thickness: Option<f64>,
+}
+
+fn default_substeps() -> usize {
+    10
+}
+
+/// A uniform wind with optional gusts (`[wind]`), acting on every method's triangles as aerodynamic
+/// drag on the normal relative velocity (see `solver::wind`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct WindSpec {
+    /// Mean air velocity, m/s (zero: no wind).
+    pub velocity: [f64; 3],
+    /// Drag coefficient of the normal flow.
+    pub drag: f64,
+    /// Air density, kg/m³.
+    pub air_density: f64,
+    /// Relative gust amplitude (0: steady wind).
+    pub gust: f64,
+    /// Base frequency of the gusts, Hz.
+    pub gust_frequency: f64,
+    /// Seed of the gusts.
+    pub seed: u64,
+}
+
+impl Default for WindSpec {
+    fn default() -> Self {
+        Self { velocity: [0.0; 3], drag: 1.0, air_density: 1.2, gust: 0.0, gust_frequency: 0.5, seed: 0 }
+    }
 }
 
 fn default_modes() -> usize {

@@ -102,21 +102,27 @@ fn body(collider: &Collider, origin: &Origin) -> Result<Body, String> {
         spin: DVec3::from(m.spin),
     };
     Ok(match collider {
-        Collider::Sphere { center, radius, motion: m } => {
-            Body { shape: Shape::Sphere { radius: *radius }, origin: DVec3::from(*center), motion: motion(m) }
+        Collider::Sphere { center, radius, motion: m, mass } => {
+            Body { mass: *mass, ..Body::scripted(Shape::Sphere { radius: *radius }, DVec3::from(*center), motion(m)) }
         }
-        Collider::Plane { point, normal, motion: m } => Body {
-            shape: Shape::Plane { normal: DVec3::from(*normal).normalize() },
-            origin: DVec3::from(*point),
-            motion: motion(m),
-        },
+        Collider::Box { center, half_extents, rotate_deg, motion: m, mass } => {
+            let [rx, ry, rz] = rotate_deg.map(f64::to_radians);
+            Body {
+                orientation: DQuat::from_euler(EulerRot::XYZ, rx, ry, rz),
+                mass: *mass,
+                ..Body::scripted(Shape::Cuboid { half: DVec3::from(*half_extents) }, DVec3::from(*center), motion(m))
+            }
+        }
+        Collider::Plane { point, normal, motion: m } => {
+            Body::scripted(Shape::Plane { normal: DVec3::from(*normal).normalize() }, DVec3::from(*point), motion(m))
+        }
         Collider::Mesh { path, scale, translate, motion: m } => {
             let file = origin.dir.join(path);
             let mesh = crate::mesh::obj::load_obj(&file)
                 .and_then(|mesh| mesh.transformed(|x| x * *scale))
                 .map_err(|e| e.to_string())?;
             let distance = MeshDistance::new(&mesh).map_err(|e| format!("{}: {e}", file.display()))?;
-            Body { shape: Shape::Mesh(Box::new(distance)), origin: DVec3::from(*translate), motion: motion(m) }
+            Body::scripted(Shape::Mesh(Box::new(distance)), DVec3::from(*translate), motion(m))
         }
     })
 }

@@ -150,9 +150,21 @@ impl Scene {
         for (i, c) in self.colliders.iter().enumerate() {
             let key = |k: &str| format!("colliders[{i}].{k}");
             let motion = match c {
-                Collider::Sphere { center, radius, motion } => {
+                Collider::Sphere { center, radius, motion, mass } => {
                     vec3(&key("center"), *center)?;
                     positive(&key("radius"), *radius)?;
+                    if let Some(m) = mass {
+                        positive(&key("mass"), *m)?;
+                    }
+                    motion
+                }
+                Collider::Box { center, half_extents, rotate_deg, motion, mass } => {
+                    vec3(&key("center"), *center)?;
+                    half_extents.iter().try_for_each(|&h| positive(&key("half_extents"), h))?;
+                    vec3(&key("rotate_deg"), *rotate_deg)?;
+                    if let Some(m) = mass {
+                        positive(&key("mass"), *m)?;
+                    }
                     motion
                 }
                 Collider::Plane { point, normal, motion } => {
@@ -195,6 +207,31 @@ impl Scene {
         if let Some(d) = s.constraint_damping {
             positive("solver.constraint_damping", d)?;
         }
+        at_least("solver.substeps", s.substeps, 1)?;
+        if let Some(t) = s.thickness {
+            positive("solver.thickness", t)?;
+        }
+        let m = &self.material;
+        for (key, k) in [("material.pbd_stretch", m.pbd_stretch), ("material.pbd_bend", m.pbd_bend)] {
+            finite(key, k)?;
+            if !(0.0..=1.0).contains(&k) {
+                return Err((key.into(), format!("is a stiffness in [0, 1], got {k}")));
+            }
+        }
+        for (key, c) in
+            [("material.compliance_stretch", m.compliance_stretch), ("material.compliance_bend", m.compliance_bend)]
+        {
+            c.map(|c| non_negative(key, c)).transpose()?;
+        }
+        if let Some(k) = m.k_pressure {
+            positive("material.k_pressure", k)?;
+        }
+        let w = &self.wind;
+        vec3("wind.velocity", w.velocity)?;
+        non_negative("wind.drag", w.drag)?;
+        non_negative("wind.air_density", w.air_density)?;
+        non_negative("wind.gust", w.gust)?;
+        non_negative("wind.gust_frequency", w.gust_frequency)?;
         match s.accuracy {
             Some(a) if !(a > 0.0 && a <= 1.0) => {
                 return Err(("solver.accuracy".into(), format!("must be a relative error in (0, 1], got {a}")));

@@ -85,6 +85,13 @@ pub trait Solver: Send {
         Vec::new()
     }
 
+    /// The pose (centre, rotation) of every collider of the scene, in its order, at the current time,
+    /// when the method moves them itself (dynamic bodies); empty (the default) when every collider
+    /// follows its scripted motion.
+    fn body_poses(&self) -> Vec<(DVec3, glam::DQuat)> {
+        Vec::new()
+    }
+
     /// Choices the method made by itself that a user should know about (e.g. a substep lowered to
     /// stay stable), one sentence each; `sim` prints them. None by default.
     fn notes(&self) -> Vec<String> {

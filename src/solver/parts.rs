@@ -228,6 +228,10 @@ impl Solver for Parts {
         info
     }
 
+    fn body_poses(&self) -> Vec<(DVec3, glam::DQuat)> {
+        self.parts.iter().map(|p| p.solver.body_poses()).find(|b| !b.is_empty()).unwrap_or_default()
+    }
+
     fn notes(&self) -> Vec<String> {
         self.parts
             .iter()

@@ -343,6 +343,9 @@ impl Solver for Scripted {
     fn info(&self) -> Vec<(&'static str, f64)> {
         self.inner.info()
     }
+    fn body_poses(&self) -> Vec<(DVec3, DQuat)> {
+        self.inner.body_poses()
+    }
     fn notes(&self) -> Vec<String> {
         self.why.iter().cloned().chain(self.inner.notes()).collect()
     }
