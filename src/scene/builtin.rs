@@ -14,6 +14,10 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("balloon", include_str!("../../assets/scenes/balloon.toml")),
     ("beams-steered", include_str!("../../assets/scenes/beams-steered.toml")),
     ("dancer", include_str!("../../assets/scenes/dancer.toml")),
+    ("pbd-drape", include_str!("../../assets/scenes/pbd-drape.toml")),
+    ("pile", include_str!("../../assets/scenes/pile.toml")),
+    ("push", include_str!("../../assets/scenes/push.toml")),
+    ("flag", include_str!("../../assets/scenes/flag.toml")),
 ];
 
 /// Names of the built-in scenes, in order.

@@ -35,6 +35,11 @@ impl Setup {
         let raw = make_mesh(&scene.mesh, &origin).map_err(mesh_err)?;
         let mesh = place(&raw, &scene.placement).map_err(mesh_err)?;
         let invalid = |key: String, reason: String| SceneError::Invalid { file: origin.label.clone(), key, reason };
+        let open = mesh.topology().boundary_edges.len();
+        if scene.material.k_pressure.is_some() && open > 0 {
+            let reason = format!("needs a closed mesh, but this mesh is not closed ({open} boundary edges)");
+            return Err(invalid("material.k_pressure".into(), reason));
+        }
         let mut anchors = Vec::new();
         for (i, a) in scene.anchors.iter().enumerate() {
             anchors.extend(select(&mesh, a).map_err(|r| invalid(format!("anchors[{i}]"), r))?);

@@ -15,6 +15,7 @@ pub mod modal;
 mod newton;
 mod params;
 pub mod parts;
+pub mod pbd;
 pub mod registry;
 mod rigid;
 pub mod run;
@@ -22,6 +23,7 @@ pub mod script;
 mod shell_model;
 mod stability;
 mod stats;
+pub mod wind;
 
 pub use drag::{Drag, DragId, DragKind, DragSet};
 pub use ds_explicit::{DsExplicit, STABLE_LIMIT_INFO};

@@ -1,7 +1,7 @@
 //! The list of methods: a name, a one-line summary and a constructor. Adding a method is one line here.
 
 use super::script::{Script, Scripted};
-use super::{Solver, SolverError, cloth, ds_explicit, ds_implicit, ds_static, modal, rigid};
+use super::{Solver, SolverError, cloth, ds_explicit, ds_implicit, ds_static, modal, pbd, rigid};
 use crate::scene::Setup;
 
 /// A registered simulation method.
@@ -24,6 +24,8 @@ pub const METHODS: &[Method] = &[
     ds_explicit::METHOD,
     cloth::CLOTH,
     cloth::CLOTH_QUAD,
+    pbd::PBD,
+    pbd::XPBD,
     rigid::METHOD,
 ];
 

@@ -71,7 +71,14 @@ impl Wind {
 
     /// Add the wind's force on every vertex (N) to `forces`, for the mesh at `positions` moving with
     /// `velocities`, at time `t`.
-    pub fn add_forces(&self, t: f64, positions: &[DVec3], velocities: &[DVec3], triangles: &[[usize; 3]], forces: &mut [DVec3]) {
+    pub fn add_forces(
+        &self,
+        t: f64,
+        positions: &[DVec3],
+        velocities: &[DVec3],
+        triangles: &[[usize; 3]],
+        forces: &mut [DVec3],
+    ) {
         if self.is_calm() {
             return;
         }
@@ -135,7 +142,11 @@ mod tests {
 
     #[test]
     fn gusts_are_smooth_bounded_and_reproducible_from_their_seed() {
-        let (a, b, c) = (Wind::new(&spec([4.0, 0.0, 0.0], 0.5, 7)), Wind::new(&spec([4.0, 0.0, 0.0], 0.5, 7)), Wind::new(&spec([4.0, 0.0, 0.0], 0.5, 8)));
+        let (a, b, c) = (
+            Wind::new(&spec([4.0, 0.0, 0.0], 0.5, 7)),
+            Wind::new(&spec([4.0, 0.0, 0.0], 0.5, 7)),
+            Wind::new(&spec([4.0, 0.0, 0.0], 0.5, 8)),
+        );
         let samples: Vec<f64> = (0..1000).map(|i| a.at(i as f64 * 0.01).x).collect();
         assert!(samples.iter().all(|s| (2.0..=6.0).contains(s)), "within 1 ± 0.5 of the mean");
         assert!(samples.windows(2).all(|w| (w[1] - w[0]).abs() < 0.2), "smooth in time");

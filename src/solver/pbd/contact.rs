@@ -1,0 +1,216 @@
+//! Contacts between the cloth and the colliders, as inequality constraints solved with the others.
+//!
+//! - A particle stays `thickness` outside every body: `C = d(p) − h ≥ 0` along the body's outward
+//!   normal. Against a dynamic body the correction is shared by the particle and the body in
+//!   proportion to their (generalised) inverse masses, so the body receives the opposite impulse.
+//! - A small body must not slip between cloth vertices: a sphere keeps its radius (plus `h`) from
+//!   the closest point of every nearby triangle, and a box's corners and points along its edges keep
+//!   `h` from every nearby triangle on the side they started on; the triangle's share of the
+//!   correction goes to its vertices by their barycentric weights.
+//! - Friction with each push of a particle: its slip over the substep relative to the body's surface
+//!   is undone while within `μ_s` times the normal correction, and shortened by `μ_k` times it
+//!   otherwise (Macklin et al. 2014's position-level Coulomb law); the body gets the opposite impulse.
+
+use glam::DVec3;
+
+use super::bodies::Rigid;
+
+/// A particle touching (or about to touch) a body during a substep, and the normal correction it got.
+#[derive(Debug, Clone, Copy)]
+pub struct Touch {
+    /// The particle.
+    pub particle: usize,
+    /// The body.
+    pub body: usize,
+    /// Accumulated normal correction over the substep, m.
+    pub pushed: f64,
+}
+
+/// A body sample (a box's corner or edge point, in the body frame) against a cloth triangle, with the
+/// side it started on.
+#[derive(Debug, Clone, Copy)]
+pub struct SampleHit {
+    /// The body.
+    pub body: usize,
+    /// The sample in the body frame.
+    pub local: DVec3,
+    /// The triangle.
+    pub triangle: usize,
+    /// +1 above the triangle's front, −1 below.
+    pub side: f64,
+}
+
+/// Barycentric coordinates of the point of triangle `(a, b, c)` closest to `p` (Ericson's
+/// "Real-Time Collision Detection", 5.1.5).
+pub fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return [1.0, 0.0, 0.0];
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return [0.0, 1.0, 0.0];
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return [1.0 - v, v, 0.0];
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return [0.0, 0.0, 1.0];
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return [1.0 - w, 0.0, w];
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return [0.0, 1.0 - w, w];
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    [1.0 - v - w, v, w]
+}
+
+/// Push particle `p` (inverse mass `w`, at `start` when the substep of `h` began) out of `body` to
+/// `thickness`, with Coulomb friction at the position level (Macklin et al. 2014): the particle's slip
+/// over the substep relative to the body's surface is undone while it is within `μ_s` times the
+/// normal correction, and shortened by `μ_k` times it otherwise. Returns the normal correction.
+pub fn push_particle(
+    p: &mut DVec3,
+    start: DVec3,
+    w: f64,
+    body: &mut Rigid,
+    thickness: f64,
+    h: f64,
+    mu: (f64, f64),
+) -> f64 {
+    let (d, n) = body.surface(*p);
+    let c = d - thickness;
+    if c >= 0.0 {
+        return 0.0;
+    }
+    let contact = *p - n * d;
+    let wb = body.inverse_mass_at(contact, n);
+    let lambda = -c / (w + wb);
+    *p += n * (w * lambda);
+    body.apply_position_impulse(contact, -n * lambda);
+    let pushed = w * lambda;
+    // Friction: the slip relative to the body's material at the contact over the substep.
+    let slip = (*p - start) - body.velocity_at(contact) * h;
+    let tangential = slip - n * slip.dot(n);
+    let length = tangential.length();
+    if length > 0.0 {
+        let (mu_s, mu_k) = mu;
+        let undo = if length <= mu_s * pushed { length } else { (mu_k * pushed).min(length) };
+        let t = tangential / length;
+        let wt = body.inverse_mass_at(contact, t);
+        let share = undo / (w + wt);
+        *p -= t * (w * share);
+        body.apply_position_impulse(contact, t * share);
+    }
+    pushed
+}
+
+/// Keep a sphere body `radius + thickness` away from triangle `t` (vertex inverse masses `w`).
+pub fn push_sphere(body: &mut Rigid, radius: f64, p: &mut [DVec3], w: &[f64], t: [usize; 3], thickness: f64) {
+    let b = closest_on_triangle(body.centre, p[t[0]], p[t[1]], p[t[2]]);
+    let q = p[t[0]] * b[0] + p[t[1]] * b[1] + p[t[2]] * b[2];
+    let d = body.centre - q;
+    let dist = d.length();
+    let c = dist - (radius + thickness);
+    if c >= 0.0 || dist == 0.0 {
+        return;
+    }
+    let n = d / dist;
+    let wt: f64 = (0..3).map(|k| b[k] * b[k] * w[t[k]]).sum();
+    let contact = body.centre - n * radius;
+    let wb = body.inverse_mass_at(contact, n);
+    if wt + wb == 0.0 {
+        return;
+    }
+    let lambda = -c / (wt + wb);
+    (0..3).for_each(|k| p[t[k]] -= n * (b[k] * w[t[k]] * lambda));
+    body.apply_position_impulse(contact, n * lambda);
+}
+
+/// Keep a body sample `thickness` from its triangle on its side, where it lies over the triangle.
+pub fn push_sample(body: &mut Rigid, hit: &SampleHit, p: &mut [DVec3], w: &[f64], t: [usize; 3], thickness: f64) {
+    let s = body.centre + body.rotation * hit.local;
+    let [a, b, c] = t.map(|i| p[i]);
+    let normal = (b - a).cross(c - a);
+    let len = normal.length();
+    if len == 0.0 {
+        return;
+    }
+    let n = normal / len * hit.side;
+    let bary = closest_on_triangle(s, a, b, c);
+    // Only over the triangle's interior (its edges and corners belong to its neighbours).
+    if bary.iter().any(|&x| x <= 0.0) {
+        return;
+    }
+    let cval = (s - a).dot(n) - thickness;
+    if cval >= 0.0 {
+        return;
+    }
+    let wt: f64 = (0..3).map(|k| bary[k] * bary[k] * w[t[k]]).sum();
+    let wb = body.inverse_mass_at(s, n);
+    if wt + wb == 0.0 {
+        return;
+    }
+    let lambda = -cval / (wt + wb);
+    (0..3).for_each(|k| p[t[k]] -= n * (bary[k] * w[t[k]] * lambda));
+    body.apply_position_impulse(s, n * lambda);
+}
+
+/// Keep dynamic `body` out of the scripted collider `ground` (a plane, a still ball or mesh) at its
+/// contact points, with the same position-level friction as the cloth's (so a ball rolls).
+pub fn push_body(body: &mut Rigid, ground: &Rigid, h: f64, mu: (f64, f64)) {
+    for point in body.contact_points(ground) {
+        let (d, n) = ground.surface(point);
+        if d >= 0.0 {
+            continue;
+        }
+        let w = body.inverse_mass_at(point, n);
+        if w == 0.0 {
+            continue;
+        }
+        let lambda = -d / w;
+        body.apply_position_impulse(point, n * lambda);
+        let moved = point + n * (-d);
+        let slip = (moved - body.previous_point(point)) - ground.velocity_at(point) * h;
+        let tangential = slip - n * slip.dot(n);
+        let length = tangential.length();
+        if length > 0.0 {
+            let (mu_s, mu_k) = mu;
+            let undo = if length <= mu_s * -d { length } else { (mu_k * -d).min(length) };
+            let t = tangential / length;
+            let wt = body.inverse_mass_at(moved, t);
+            body.apply_position_impulse(moved, -t * (undo / wt));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closest_points_on_a_triangle_in_each_region() {
+        let (a, b, c) = (DVec3::ZERO, DVec3::X, DVec3::Y);
+        let at = |p: DVec3| {
+            let w = closest_on_triangle(p, a, b, c);
+            a * w[0] + b * w[1] + c * w[2]
+        };
+        assert!((at(DVec3::new(0.2, 0.3, 1.0)) - DVec3::new(0.2, 0.3, 0.0)).length() < 1e-15, "interior");
+        assert!((at(DVec3::new(-1.0, -1.0, 0.0)) - a).length() < 1e-15, "vertex region");
+        assert!((at(DVec3::new(0.5, -1.0, 0.0)) - DVec3::new(0.5, 0.0, 0.0)).length() < 1e-15, "edge region");
+        assert!((at(DVec3::new(1.0, 1.0, 0.0)) - DVec3::new(0.5, 0.5, 0.0)).length() < 1e-15, "hypotenuse");
+    }
+}
