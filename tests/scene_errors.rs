@@ -106,6 +106,27 @@ fn every_validation_check_names_its_key() {
         ("solver.margin=0".into(), "solver.margin", "must be positive"),
         ("solver.accuracy=0".into(), "solver.accuracy", "relative error in (0, 1]"),
         ("solver.constraint_damping=0".into(), "solver.constraint_damping", "must be positive"),
+        ("solver.iterations=0".into(), "solver.iterations", "at least 1"),
+        ("solver.substeps=0".into(), "solver.substeps", "at least 1"),
+        ("solver.thickness=-0.01".into(), "solver.thickness", "must be positive"),
+        ("material.compliance_stretch=-1e-3".into(), "material.compliance_stretch", "must not be negative"),
+        ("material.compliance_bend=-1".into(), "material.compliance_bend", "must not be negative"),
+        ("material.pbd_stretch=1.5".into(), "material.pbd_stretch", "stiffness in [0, 1]"),
+        ("material.pbd_bend=-0.1".into(), "material.pbd_bend", "stiffness in [0, 1]"),
+        ("material.k_pressure=0".into(), "material.k_pressure", "must be positive"),
+        (
+            "colliders=[{ sphere = { center = [0, 0, 0], radius = 0.1, mass = 0.0 } }]".into(),
+            "colliders[0].mass",
+            "must be positive",
+        ),
+        (
+            "colliders=[{ box = { center = [0, 0, 0], half_extents = [0.1, 0.0, 0.1] } }]".into(),
+            "colliders[0].half_extents",
+            "must be positive",
+        ),
+        ("wind.velocity=[nan, 0, 0]".into(), "wind.velocity", "finite"),
+        ("wind.drag=-1".into(), "wind.drag", "must not be negative"),
+        ("wind.gust=-0.5".into(), "wind.gust", "must not be negative"),
         ("placement.copies=0".into(), "placement.copies", "at least 1"),
         ("placement.copy_offset=[0, nan, 0]".into(), "placement.copy_offset", "finite"),
         (
@@ -238,6 +259,21 @@ fn placement_overflow_is_reported_as_such() {
 
 /// A mesh collider is read when the scene is loaded: a missing file or an open mesh is an error that
 /// names the collider, and a closed mesh relative to the scene file loads.
+/// A pressure needs a closed mesh: an open one is refused when the scene is loaded, by name.
+#[test]
+fn pressure_on_an_open_mesh_is_refused() {
+    let origin = Origin { label: "open.toml".into(), dir: PathBuf::new() };
+    let text = BASE.replace("method = \"rigid\"", "method = \"xpbd\"") + "[material]\nk_pressure = 1.5\n";
+    let scene = scene::parse(&text, &origin, &[]).unwrap();
+    match scene::Setup::new(scene, origin) {
+        Err(SceneError::Invalid { key, reason, file }) => {
+            assert_eq!((key.as_str(), file.as_str()), ("material.k_pressure", "open.toml"));
+            assert!(reason.contains("not closed"), "{reason}");
+        }
+        other => panic!("expected a refusal, got {other:?}"),
+    }
+}
+
 #[test]
 fn mesh_colliders_must_exist_and_be_closed() {
     let dir = scratch("collider");

@@ -87,6 +87,12 @@ impl SpatialHash {
     /// The boxes that contain `p` (candidates from `p`'s bucket, tested), in increasing item order,
     /// each once, into `out` (cleared first).
     pub fn query(&mut self, p: DVec3, out: &mut Vec<u32>) {
+        self.query_box(p, p, out);
+    }
+
+    /// The boxes that overlap the box `(lo, hi)` (candidates from the buckets of its cells, tested), in
+    /// increasing item order, each once, into `out` (cleared first).
+    pub fn query_box(&mut self, lo: DVec3, hi: DVec3, out: &mut Vec<u32>) {
         out.clear();
         if self.boxes.is_empty() {
             return;
@@ -96,12 +102,19 @@ impl SpatialHash {
             self.seen.fill(0);
             self.stamp = 1;
         }
-        let k = bucket(self.cell_of(p), self.mask);
-        for &i in &self.entries[self.starts[k] as usize..self.starts[k + 1] as usize] {
-            let (lo, hi) = self.boxes[i as usize];
-            if self.seen[i as usize] != self.stamp && p.cmpge(lo).all() && p.cmple(hi).all() {
-                self.seen[i as usize] = self.stamp;
-                out.push(i);
+        let (a, b) = (self.cell_of(lo), self.cell_of(hi));
+        for x in a.x..=b.x {
+            for y in a.y..=b.y {
+                for z in a.z..=b.z {
+                    let k = bucket(IVec3::new(x, y, z), self.mask);
+                    for &i in &self.entries[self.starts[k] as usize..self.starts[k + 1] as usize] {
+                        let (blo, bhi) = self.boxes[i as usize];
+                        if self.seen[i as usize] != self.stamp && lo.cmple(bhi).all() && blo.cmple(hi).all() {
+                            self.seen[i as usize] = self.stamp;
+                            out.push(i);
+                        }
+                    }
+                }
             }
         }
         out.sort_unstable();

@@ -118,6 +118,14 @@ impl Rigid {
         }
     }
 
+    /// Scale a dynamic body's velocities by `keep` (damping).
+    pub fn damp(&mut self, keep: f64) {
+        if self.is_dynamic() {
+            self.velocity *= keep;
+            self.spin *= keep;
+        }
+    }
+
     /// Signed distance and outward normal at world point `x`.
     pub fn surface(&self, x: DVec3) -> (f64, DVec3) {
         let (d, n) = self.body.shape.surface(self.rotation.inverse() * (x - self.centre));

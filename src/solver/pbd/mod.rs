@@ -90,7 +90,14 @@ const COMMON: [ParamSpec; 9] = [
         ..spec("density", "density", "kg/m²", "Surface density; lumped to particles.", 1e-6, 1e4)
     },
     spec("gravity_y", "gravity y", "m/s²", "Vertical gravity (x and z from the scene).", -1e3, 1e3),
-    spec("damping", "damping", "1/s", "Velocity damping rate.", 0.0, 100.0),
+    spec(
+        "damping",
+        "damping",
+        "1/s",
+        "Velocity damping rate of the cloth and the dynamic bodies (air drag).",
+        0.0,
+        100.0,
+    ),
     spec(
         "mu_s",
         "static friction μ_s",
@@ -213,7 +220,9 @@ impl Pbd {
             forces: vec![DVec3::ZERO; n],
             initial_bodies: bodies.clone(),
             bodies,
-            self_collision: s.self_collision.then(|| SelfCollision::new(model.mean_edge)),
+            self_collision: s
+                .self_collision
+                .then(|| SelfCollision::new(model.mean_edge, model.edges.iter().map(|e| e.v).collect())),
             wind: Wind::new(&setup.scene.wind),
             drags: DragSet::new(n, false),
             step: check("step", s.step.unwrap_or(1.0 / 60.0))?,
@@ -362,6 +371,7 @@ impl Pbd {
         }
         for b in &mut self.bodies {
             b.finish(h);
+            b.damp(keep);
         }
         self.v.iter_mut().for_each(|v| *v *= keep);
     }
@@ -454,6 +464,9 @@ impl Pbd {
         if let Some(sc) = &self.self_collision {
             for pair in &sc.pairs {
                 self_collision::project(pair, &mut self.p, &self.w, &self.model.triangles, self.thickness);
+            }
+            for pair in &sc.edge_pairs {
+                self_collision::project_edges(pair, &sc.edges, &mut self.p, &self.w, self.thickness);
             }
         }
     }
