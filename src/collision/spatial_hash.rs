@@ -1,11 +1,12 @@
-//! A spatial hash for self-collision queries: boxes (e.g. triangles' bounding boxes grown by a
-//! thickness) are entered into every cell of a uniform grid they overlap, cells are hashed into a
-//! fixed table, and a point's query returns the boxes entered in its cell's bucket that contain it.
+//! A spatial hash of points for self-collision queries: each point is entered in the one cell of a
+//! uniform grid that contains it, cells are hashed into a table (Teschner et al. 2003's primes), and a
+//! box query visits the cells the box overlaps and reports the points inside the box.
 //!
-//! Built by counting sort, so it allocates nothing once warm and its answers do not depend on any
-//! iteration order but the items' own: a query lists candidates in increasing item order, every run
-//! the same (Teschner et al. 2003 hash the cells the same way; the table here is rebuilt, not
-//! updated, each time).
+//! Built by counting sort, so it allocates nothing once warm; each entry keeps its point and cell, so a
+//! query reads one contiguous run per bucket, rejects the points of other cells that share the bucket
+//! (which also reports every point once) and tests the box without touching the caller's arrays.
+//! Answers come in a fixed order — cells in x, y, z order, points of a cell in increasing index — so
+//! the same input gives the same output, every run.
 
 use glam::{DVec3, IVec3};
 
@@ -17,107 +18,93 @@ fn bucket(c: IVec3, mask: usize) -> usize {
     (h as u64 as usize) & mask
 }
 
-/// A spatial hash of boxes.
+/// One point in the table.
+#[derive(Debug, Clone, Copy, Default)]
+struct Entry {
+    point: DVec3,
+    cell: IVec3,
+    item: u32,
+}
+
+/// A spatial hash of points.
 #[derive(Debug, Clone, Default)]
 pub struct SpatialHash {
-    cell: f64,
+    inverse_cell: f64,
     mask: usize,
     /// Bucket `b` holds `entries[starts[b]..starts[b + 1]]`.
     starts: Vec<u32>,
-    entries: Vec<u32>,
-    boxes: Vec<(DVec3, DVec3)>,
-    /// Per item, the query that last returned it (to return each once).
-    seen: Vec<u32>,
-    stamp: u32,
+    entries: Vec<Entry>,
+    /// Each point's cell and bucket, between the passes of a rebuild.
+    placed: Vec<(IVec3, u32)>,
 }
 
 impl SpatialHash {
     /// An empty hash with cells of side `cell` (about the mean edge length of the mesh).
     pub fn new(cell: f64) -> Self {
-        Self { cell: cell.max(f64::MIN_POSITIVE), ..Self::default() }
+        Self { inverse_cell: 1.0 / cell.max(1e-12), ..Self::default() }
+    }
+
+    /// Use cells of side `cell` from the next rebuild on.
+    pub fn set_cell(&mut self, cell: f64) {
+        self.inverse_cell = 1.0 / cell.max(1e-12);
     }
 
     fn cell_of(&self, p: DVec3) -> IVec3 {
-        (p / self.cell).floor().as_ivec3()
+        // Clamped so that a far-away (or non-finite) point lands in an edge cell instead of wrapping.
+        let c = (p * self.inverse_cell).floor().clamp(DVec3::splat(-1e9), DVec3::splat(1e9));
+        c.as_ivec3()
     }
 
-    /// Enter these boxes (item `i` is the `i`-th), replacing what was there.
-    pub fn rebuild(&mut self, boxes: impl IntoIterator<Item = (DVec3, DVec3)>) {
-        self.boxes.clear();
-        self.boxes.extend(boxes);
-        let buckets = (2 * self.boxes.len()).next_power_of_two().max(64);
+    /// Enter these points (item `i` is the `i`-th), replacing what was there.
+    pub fn rebuild(&mut self, points: impl ExactSizeIterator<Item = DVec3> + Clone) {
+        let n = points.len();
+        let buckets = (2 * n).next_power_of_two().max(64);
         self.mask = buckets - 1;
         self.starts.clear();
         self.starts.resize(buckets + 1, 0);
-        // Pass 1 counts, pass 2 places: entries of a bucket in increasing item order.
-        for pass in 0..2 {
-            if pass == 1 {
-                let mut sum = 0;
-                for s in self.starts.iter_mut() {
-                    let count = *s;
-                    *s = sum;
-                    sum += count;
-                }
-                self.entries.clear();
-                self.entries.resize(sum as usize, 0);
-            }
-            let mut fill = if pass == 1 { self.starts.clone() } else { Vec::new() };
-            for (i, &(lo, hi)) in self.boxes.iter().enumerate() {
-                let (a, b) = (self.cell_of(lo), self.cell_of(hi));
-                for x in a.x..=b.x {
-                    for y in a.y..=b.y {
-                        for z in a.z..=b.z {
-                            let k = bucket(IVec3::new(x, y, z), self.mask);
-                            if pass == 0 {
-                                self.starts[k] += 1;
-                            } else {
-                                self.entries[fill[k] as usize] = i as u32;
-                                fill[k] += 1;
-                            }
-                        }
-                    }
-                }
-            }
+        self.placed.clear();
+        for p in points.clone() {
+            let cell = self.cell_of(p);
+            let b = bucket(cell, self.mask);
+            self.starts[b + 1] += 1;
+            self.placed.push((cell, b as u32));
         }
-        self.seen.clear();
-        self.seen.resize(self.boxes.len(), 0);
-        self.stamp = 0;
+        for b in 0..buckets {
+            self.starts[b + 1] += self.starts[b];
+        }
+        self.entries.clear();
+        self.entries.resize(n, Entry::default());
+        // `starts[b]` serves as bucket `b`'s fill pointer, then is shifted back.
+        for (i, (p, &(cell, b))) in points.zip(&self.placed).enumerate() {
+            let slot = &mut self.starts[b as usize];
+            self.entries[*slot as usize] = Entry { point: p, cell, item: i as u32 };
+            *slot += 1;
+        }
+        for b in (1..=buckets).rev() {
+            self.starts[b] = self.starts[b - 1];
+        }
+        self.starts[0] = 0;
     }
 
-    /// The boxes that contain `p` (candidates from `p`'s bucket, tested), in increasing item order,
-    /// each once, into `out` (cleared first).
-    pub fn query(&mut self, p: DVec3, out: &mut Vec<u32>) {
-        self.query_box(p, p, out);
-    }
-
-    /// The boxes that overlap the box `(lo, hi)` (candidates from the buckets of its cells, tested), in
-    /// increasing item order, each once, into `out` (cleared first).
-    pub fn query_box(&mut self, lo: DVec3, hi: DVec3, out: &mut Vec<u32>) {
-        out.clear();
-        if self.boxes.is_empty() {
+    /// Call `found` with every point inside the box `(lo, hi)` (and its index).
+    pub fn query(&self, lo: DVec3, hi: DVec3, mut found: impl FnMut(u32, DVec3)) {
+        if self.entries.is_empty() {
             return;
-        }
-        self.stamp = self.stamp.wrapping_add(1);
-        if self.stamp == 0 {
-            self.seen.fill(0);
-            self.stamp = 1;
         }
         let (a, b) = (self.cell_of(lo), self.cell_of(hi));
         for x in a.x..=b.x {
             for y in a.y..=b.y {
                 for z in a.z..=b.z {
-                    let k = bucket(IVec3::new(x, y, z), self.mask);
-                    for &i in &self.entries[self.starts[k] as usize..self.starts[k + 1] as usize] {
-                        let (blo, bhi) = self.boxes[i as usize];
-                        if self.seen[i as usize] != self.stamp && lo.cmple(bhi).all() && blo.cmple(hi).all() {
-                            self.seen[i as usize] = self.stamp;
-                            out.push(i);
+                    let cell = IVec3::new(x, y, z);
+                    let k = bucket(cell, self.mask);
+                    for e in &self.entries[self.starts[k] as usize..self.starts[k + 1] as usize] {
+                        if e.cell == cell && e.point.cmpge(lo).all() && e.point.cmple(hi).all() {
+                            found(e.item, e.point);
                         }
                     }
                 }
             }
         }
-        out.sort_unstable();
     }
 }
 
@@ -126,23 +113,26 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_query_finds_exactly_the_boxes_that_contain_the_point() {
-        let boxes: Vec<(DVec3, DVec3)> = (0..200)
-            .map(|i| {
-                let c = DVec3::new((i % 10) as f64 * 0.13, ((i / 10) % 5) as f64 * 0.21, (i / 50) as f64 * 0.17);
-                (c - 0.09, c + 0.11 + DVec3::splat((i % 3) as f64 * 0.05))
-            })
+    fn a_query_finds_exactly_the_points_inside_the_box_each_once() {
+        let points: Vec<DVec3> = (0..500)
+            .map(|i| DVec3::new((i % 10) as f64 * 0.13, ((i / 10) % 7) as f64 * 0.21, (i / 70) as f64 * 0.17) - 0.3)
             .collect();
-        let mut hash = SpatialHash::new(0.1);
-        hash.rebuild(boxes.iter().copied());
-        let mut out = Vec::new();
+        // Cells smaller than the spacing and a small table: many cells share a bucket.
+        let mut hash = SpatialHash::new(0.07);
+        hash.rebuild(points.iter().copied());
         for j in 0..300 {
-            let p = DVec3::new((j % 17) as f64 * 0.08, (j % 11) as f64 * 0.1, (j % 7) as f64 * 0.1) - 0.05;
-            hash.query(p, &mut out);
-            let brute: Vec<u32> = (0..boxes.len() as u32)
-                .filter(|&i| p.cmpge(boxes[i as usize].0).all() && p.cmple(boxes[i as usize].1).all())
+            let lo = DVec3::new((j % 17) as f64 * 0.08, (j % 11) as f64 * 0.1, (j % 7) as f64 * 0.1) - 0.5;
+            let hi = lo + DVec3::new(0.3, 0.05 * (j % 5) as f64, 0.4);
+            let mut found = Vec::new();
+            hash.query(lo, hi, |i, p| {
+                assert_eq!(p, points[i as usize]);
+                found.push(i);
+            });
+            found.sort_unstable();
+            let brute: Vec<u32> = (0..points.len() as u32)
+                .filter(|&i| points[i as usize].cmpge(lo).all() && points[i as usize].cmple(hi).all())
                 .collect();
-            assert_eq!(out, brute, "at {p}");
+            assert_eq!(found, brute, "box {lo} – {hi}");
         }
     }
 }

@@ -6,22 +6,81 @@
 use glam::DVec3;
 
 use super::hinge;
+use crate::linalg::real::{self, Real, V3};
 
 /// Stretch: `C = |p₁ − p₂| − l₀`, with `∇₁C = n̂ = −∇₂C` (`n̂` the unit edge direction; zero-length
 /// edges give a zero gradient).
 pub fn stretch(p1: DVec3, p2: DVec3, rest: f64) -> (f64, [DVec3; 2]) {
-    let d = p1 - p2;
-    let l = d.length();
-    let n = if l > 0.0 { d / l } else { DVec3::ZERO };
-    (l - rest, [n, -n])
+    let (c, n) = stretch_of(p1.to_array(), p2.to_array(), rest);
+    let n = DVec3::from_array(n);
+    (c, [n, -n])
+}
+
+/// [`stretch`] for numbers or SIMD lanes: `C` and `∇₁C`.
+#[inline(always)]
+pub fn stretch_of<N: Real>(p1: V3<N>, p2: V3<N>, rest: N) -> (N, V3<N>) {
+    let d = real::sub(p1, p2);
+    let l = real::dot(d, d).sqrt();
+    let zero = l.constant(0.0);
+    let n = real::scale(d, N::select(zero.less(l), l.constant(1.0) / l, zero));
+    (l - rest, n)
+}
+
+/// A rest angle `θ̄` as its cosine and sine.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RestAngle {
+    /// `cos θ̄`.
+    pub cos: f64,
+    /// `sin θ̄`.
+    pub sin: f64,
+}
+
+impl RestAngle {
+    /// The rest angle `theta`, radians.
+    pub fn new(theta: f64) -> Self {
+        Self { cos: theta.cos(), sin: theta.sin() }
+    }
 }
 
 /// Bending of the hinge `[a, b, c, d]` (shared edge `a → b`, wings `c`, `d`, as [`crate::mesh::Hinge`]
-/// lists them): `C = θ − θ̄` wrapped to `[−π, π)`, `θ` the signed dihedral angle of [`hinge::angle`].
+/// lists them): `C = θ − θ̄` wrapped to `(−π, π]`, `θ` the signed dihedral angle of [`hinge::angle`].
 /// Unlike `acos(n̂₁·n̂₂)`, whose gradient is singular at 0 and π, this is smooth through flat.
-pub fn bending(x: &[DVec3; 4], rest: f64) -> (f64, [DVec3; 4]) {
-    let (theta, g) = hinge::angle_gradient(x);
-    (hinge::wrapped_difference(theta, rest), g)
+pub fn bending(x: &[DVec3; 4], rest: RestAngle) -> (f64, [DVec3; 4]) {
+    let (c, g) = bending_of(&x.map(|p| p.to_array()), rest.cos, rest.sin);
+    (c, g.map(DVec3::from_array))
+}
+
+/// [`bending`] for numbers or SIMD lanes, the rest angle given by its cosine and sine. The difference
+/// is one arctangent of the hinge's (sine, cosine) turned back by `θ̄`, which wraps it by itself.
+#[inline(always)]
+pub fn bending_of<N: Real>(x: &[V3<N>; 4], rest_cos: N, rest_sin: N) -> (N, [V3<N>; 4]) {
+    let (s, c, g) = hinge::angle_parts(x);
+    (atan2(s * rest_cos - c * rest_sin, c * rest_cos + s * rest_sin), g)
+}
+
+/// `atan2(y, x)` in `(−π, π]` to within a few units in the last place, in arithmetic a vector unit
+/// does (no table, no branch but selects): the ratio of the smaller to the larger magnitude, halved
+/// twice by `atan z = 2 atan(z / (1 + √(1 + z²)))` to `|z| ≤ tan(π/16)`, then the series
+/// `Σ (−1)ᵏ z²ᵏ⁺¹/(2k + 1)` to `z²³` (the next term is below 2⁻⁶⁰), and the octant restored.
+#[inline(always)]
+pub fn atan2<N: Real>(y: N, x: N) -> N {
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let (ax, ay) = (x.abs(), y.abs());
+    let (zero, one) = (x.constant(0.0), x.constant(1.0));
+    let steep = ax.less(ay);
+    let (lo, hi) = (N::select(steep, ax, ay), N::select(steep, ay, ax));
+    let z = N::select(zero.less(hi), lo / hi, zero);
+    let z = z / (one + (one + z * z).sqrt());
+    let z = z / (one + (one + z * z).sqrt());
+    let z2 = z * z;
+    let mut series = x.constant(-1.0 / 23.0);
+    for k in (0..11).rev() {
+        series = series * z2 + x.constant(if k % 2 == 0 { 1.0 } else { -1.0 } / (2 * k + 1) as f64);
+    }
+    let r = x.constant(4.0) * z * series;
+    let r = N::select(steep, x.constant(FRAC_PI_2) - r, r);
+    let r = N::select(x.less(zero), x.constant(PI) - r, r);
+    r.copysign(y)
 }
 
 /// Six times the volume enclosed by a closed, outward-wound mesh: `Σ_t (p_{t1} × p_{t2})·p_{t3}`, and
@@ -117,11 +176,32 @@ mod tests {
         };
         for (phi, rest) in [(1e-4, 0.0), (0.0, 0.0), (0.7, 0.5), (3.1, 3.0), (3.13, -3.1), (-2.0, 1.0)] {
             let x = folded(phi, &mut rng);
+            let rest = RestAngle::new(rest);
             let (c, g) = bending(&x, rest);
             assert!(c.abs() <= std::f64::consts::PI + 1e-12);
+            let theta = hinge::angle(&x);
+            let wrapped = hinge::wrapped_difference(theta, rest.sin.atan2(rest.cos));
+            assert!((c - wrapped).abs() < 1e-14, "{c} against θ − θ̄ = {wrapped}");
             let e = check(&x, &g, |y| bending(&[y[0], y[1], y[2], y[3]], rest).0);
-            assert!(e < 1e-6, "angle {phi}, rest {rest}: {e}");
+            assert!(e < 1e-6, "angle {phi}, rest {rest:?}: {e}");
         }
+    }
+
+    #[test]
+    fn the_vector_friendly_arctangent_agrees_with_the_library_one() {
+        let mut rng = Lcg(7);
+        let mut worst: f64 = 0.0;
+        for k in 0..200_000 {
+            let scale = 10f64.powi(k % 9 - 4);
+            let (y, x) = (rng.next() * scale, rng.next() * scale);
+            worst = worst.max((atan2(y, x) - y.atan2(x)).abs());
+        }
+        for (y, x) in
+            [(0.0, 1.0), (1.0, 0.0), (0.0, -1.0), (-1.0, 0.0), (1.0, 1.0), (-2.0, -2.0), (0.0, 0.0), (1e-300, -1.0)]
+        {
+            worst = worst.max((atan2(y, x) - y.atan2(x)).abs());
+        }
+        assert!(worst < 4.0 * f64::EPSILON, "{worst:e}");
     }
 
     #[test]

@@ -27,6 +27,8 @@
 
 use glam::{DMat3, DVec3};
 
+use crate::linalg::real::{Real, V3, add, cross, dot, neg, scale, sub};
+
 /// `u vᵀ`.
 pub(crate) fn outer(u: DVec3, v: DVec3) -> DMat3 {
     DMat3::from_cols(u * v.x, u * v.y, u * v.z)
@@ -46,22 +48,31 @@ pub fn angle(x: &[DVec3; 4]) -> f64 {
     n1.cross(n2).dot(e / e.length()).atan2(n1.dot(n2))
 }
 
+/// The angle as its (scaled) sine and cosine, `(N₁ × N₂)·ê` and `N₁·N₂` (`θ = atan2` of them), and
+/// its gradient: what a caller that takes the arctangent its own way needs. Written once for numbers
+/// and SIMD lanes ([`Real`]).
+#[inline(always)]
+pub fn angle_parts<N: Real>(x: &[V3<N>; 4]) -> (N, N, [V3<N>; 4]) {
+    let [a, b, c, d] = *x;
+    let e = sub(b, a);
+    let l2 = dot(e, e);
+    let l = l2.sqrt();
+    let (ca, da) = (sub(c, a), sub(d, a));
+    let n1 = cross(e, ca);
+    let n2 = cross(sub(a, b), sub(d, b));
+    let gc = scale(n1, -l / dot(n1, n1));
+    let gd = scale(n2, -l / dot(n2, n2));
+    let s1 = dot(ca, e) / l2;
+    let s2 = dot(da, e) / l2;
+    let gb = neg(add(scale(gc, s1), scale(gd, s2)));
+    let ga = neg(add(add(gb, gc), gd));
+    (dot(cross(n1, n2), e) / l, dot(n1, n2), [ga, gb, gc, gd])
+}
+
 /// The angle and its gradient.
 pub fn angle_gradient(x: &[DVec3; 4]) -> (f64, [DVec3; 4]) {
-    let [a, b, c, d] = *x;
-    let e = b - a;
-    let l2 = e.length_squared();
-    let l = l2.sqrt();
-    let n1 = e.cross(c - a);
-    let n2 = (a - b).cross(d - b);
-    let theta = n1.cross(n2).dot(e / l).atan2(n1.dot(n2));
-    let gc = n1 * (-l / n1.length_squared());
-    let gd = n2 * (-l / n2.length_squared());
-    let s1 = (c - a).dot(e) / l2;
-    let s2 = (d - a).dot(e) / l2;
-    let gb = -(gc * s1 + gd * s2);
-    let ga = -(gb + gc + gd);
-    (theta, [ga, gb, gc, gd])
+    let (sine, cosine, g) = angle_parts(&x.map(|p| p.to_array()));
+    (sine.atan2(cosine), g.map(DVec3::from_array))
 }
 
 /// Position of block `(p, q)`, `p ≥ q`, in the row-wise packed lower triangle of a 4 × 4 block matrix.
@@ -74,6 +85,7 @@ pub(crate) const fn lower_index(p: usize, q: usize) -> usize {
 /// move `N₂` nor `d` move `N₁`, so `(d, c)` is zero), row `b` follows from them for columns `a, b`,
 /// and row `a` only for column `a`.
 pub(crate) fn angle_hessian_lower(x: &[DVec3; 4]) -> (f64, [DVec3; 4], [DMat3; 10]) {
+    let (theta, [ga, gb, gc, gd]) = angle_gradient(x);
     let [a, b, c, d] = *x;
     let e = b - a;
     let l2 = e.length_squared();
@@ -81,15 +93,10 @@ pub(crate) fn angle_hessian_lower(x: &[DVec3; 4]) -> (f64, [DVec3; 4], [DMat3; 1
     let eh = e / l;
     let n1 = e.cross(c - a);
     let n2 = (a - b).cross(d - b);
-    let theta = n1.cross(n2).dot(eh).atan2(n1.dot(n2));
     let q1 = n1.length_squared();
     let q2 = n2.length_squared();
-    let gc = n1 * (-l / q1);
-    let gd = n2 * (-l / q2);
     let s1 = (c - a).dot(e) / l2;
     let s2 = (d - a).dot(e) / l2;
-    let gb = -(gc * s1 + gd * s2);
-    let ga = -(gb + gc + gd);
 
     // ∂s/∂x_k for a wing point w, s = (w − a)·e/|e|²: for k = a, b (and ∂s/∂w = e/|e|², unused here).
     let ds = |w: DVec3, s: f64| {
@@ -125,7 +132,16 @@ pub(crate) fn angle_hessian_lower(x: &[DVec3; 4]) -> (f64, [DVec3; 4], [DMat3; 1
 /// `θ − θ̄` wrapped to `[−π, π)`, so a rest angle near ±π does not jump by 2π.
 pub fn wrapped_difference(theta: f64, rest: f64) -> f64 {
     use std::f64::consts::{PI, TAU};
-    (theta - rest + PI).rem_euclid(TAU) - PI
+    let d = theta - rest;
+    // Both angles lie in [−π, π], so one turn at most brings the difference back (and this is exact,
+    // where `rem_euclid` would round).
+    if d >= PI {
+        d - TAU
+    } else if d < -PI {
+        d + TAU
+    } else {
+        d
+    }
 }
 
 #[cfg(test)]

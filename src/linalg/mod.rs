@@ -4,7 +4,8 @@
 //! assembly through precomputed value slots, DOF reduction for anchored vertices, and a sparse
 //! Cholesky wrapper (faer) that factorises the pattern symbolically once, and Baraff–Witkin's
 //! filtered PCG for constrained particle systems ([`filtered_pcg`]); hot loops compiled for the CPU's
-//! best instruction set ([`isa`]) over per-particle vectors padded to four lanes ([`padded`]).
+//! best instruction set ([`isa`]) over per-particle vectors padded to four lanes ([`padded`]), and
+//! arithmetic that one formula writes for a number and for SIMD lanes alike ([`real`]).
 
 mod assembly;
 mod cholesky;
@@ -16,6 +17,7 @@ pub mod lanczos;
 pub mod matrix_market;
 pub mod ordering;
 pub mod padded;
+pub mod real;
 
 pub use assembly::BlockAssembler;
 pub use cholesky::SparseCholesky;

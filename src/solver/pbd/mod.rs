@@ -25,6 +25,7 @@
 mod bodies;
 mod contact;
 mod model;
+mod project;
 mod self_collision;
 
 use std::time::Instant;
@@ -34,6 +35,7 @@ use glam::{DQuat, DVec3};
 use self::bodies::Rigid;
 use self::contact::{SampleHit, Touch};
 use self::model::Model;
+use self::project::{Compliance, Stiffness, Sweep};
 use self::self_collision::SelfCollision;
 use crate::collision::Shape;
 use crate::energy::constraints;
@@ -301,68 +303,54 @@ impl Pbd {
         self.detect(h);
         self.lambda_edges.fill(0.0);
         self.lambda_bends.fill(0.0);
-        let mut lambda_volume = 0.0;
         let (alpha_stretch, alpha_bend) = self.compliances();
-        let correction = |k: f64| 1.0 - (1.0 - k).powf(1.0 / self.iterations as f64);
-        let (k_stretch, k_bend) = (correction(self.stiffness.0), correction(self.stiffness.1));
+        let sweeps = self.iterations as f64;
+        let correction = |k: f64| 1.0 - (1.0 - k).powf(1.0 / sweeps);
         for _ in 0..self.iterations {
-            // Stretch.
-            for (e, lambda) in self.model.edges.iter().zip(&mut self.lambda_edges) {
-                let [a, b] = e.v;
-                let (wa, wb) = (self.w[a], self.w[b]);
-                if wa + wb == 0.0 {
-                    continue;
-                }
-                let (c, g) = constraints::stretch(self.p[a], self.p[b], e.rest);
-                let dl = match self.variant {
-                    Variant::Pbd => -k_stretch * c / (wa + wb),
-                    Variant::Xpbd => {
-                        let at = alpha_stretch / (h * h);
-                        let dl = (-c - at * *lambda) / (wa + wb + at);
-                        *lambda += dl;
-                        dl
+            let (p, w, m) = (&mut self.p, &self.w, &self.model);
+            let (edges, bends) = (&mut self.lambda_edges, &mut self.lambda_bends);
+            match self.variant {
+                Variant::Pbd => {
+                    let (stretch, bend) =
+                        (Stiffness(correction(self.stiffness.0)), Stiffness(correction(self.stiffness.1)));
+                    project::stretch(
+                        &m.edges,
+                        &m.edge_colours,
+                        Sweep { p, w, lambda: edges, compliance: 0.0, rule: stretch },
+                    );
+                    if bend.0 > 0.0 {
+                        project::bend(
+                            &m.bends,
+                            &m.bend_colours,
+                            Sweep { p, w, lambda: bends, compliance: 0.0, rule: bend },
+                        );
                     }
-                };
-                self.p[a] += g[0] * (wa * dl);
-                self.p[b] += g[1] * (wb * dl);
-            }
-            // Bending.
-            for (bend, lambda) in self.model.bends.iter().zip(&mut self.lambda_bends) {
-                let (pbd_off, xpbd_off) = (k_bend == 0.0, !alpha_bend.is_finite());
-                if (self.variant == Variant::Pbd && pbd_off) || (self.variant == Variant::Xpbd && xpbd_off) {
-                    break;
                 }
-                let x = bend.v.map(|i| self.p[i]);
-                let (c, g) = constraints::bending(&x, bend.rest);
-                let denominator: f64 = (0..4).map(|k| self.w[bend.v[k]] * g[k].length_squared()).sum();
-                if denominator <= 1e-300 || !denominator.is_finite() {
-                    continue;
-                }
-                let dl = match self.variant {
-                    Variant::Pbd => -k_bend * c / denominator,
-                    Variant::Xpbd => {
-                        let at = alpha_bend / bend.weight / (h * h);
-                        let dl = (-c - at * *lambda) / (denominator + at);
-                        *lambda += dl;
-                        dl
+                Variant::Xpbd => {
+                    let (stretch, bend) = (alpha_stretch / (h * h), alpha_bend / (h * h));
+                    project::stretch(
+                        &m.edges,
+                        &m.edge_colours,
+                        Sweep { p, w, lambda: edges, compliance: stretch, rule: Compliance },
+                    );
+                    if bend.is_finite() {
+                        project::bend(
+                            &m.bends,
+                            &m.bend_colours,
+                            Sweep { p, w, lambda: bends, compliance: bend, rule: Compliance },
+                        );
                     }
-                };
-                (0..4).for_each(|k| self.p[bend.v[k]] += g[k] * (self.w[bend.v[k]] * dl));
+                }
             }
-            // The balloon's volume (a hard constraint).
             if let (Some(v0), true) = (self.model.six_volume, self.k_pressure > 0.0) {
-                let c =
-                    constraints::six_volume(&self.p, &self.model.triangles, &mut self.gradient) - self.k_pressure * v0;
-                let denominator: f64 = self.gradient.iter().zip(&self.w).map(|(g, w)| w * g.length_squared()).sum();
-                if denominator > 0.0 {
-                    let dl = -c / denominator;
-                    lambda_volume += dl;
-                    self.p.iter_mut().zip(&self.gradient).zip(&self.w).for_each(|((p, g), w)| *p += *g * (w * dl));
-                }
+                project::volume(&self.model.triangles, p, w, self.k_pressure * v0, &mut self.gradient);
             }
             self.collide(h);
         }
-        let _ = lambda_volume;
+        // The last word goes to self-collision: the cloth must not end the substep through itself.
+        if let Some(sc) = &self.self_collision {
+            sc.project(&mut self.p, &self.w, &self.model.triangles, self.thickness);
+        }
         // Velocities from positions; friction; damping.
         let keep = (1.0 - self.damping * h).max(0.0);
         for i in 0..n {
@@ -462,12 +450,7 @@ impl Pbd {
             }
         }
         if let Some(sc) = &self.self_collision {
-            for pair in &sc.pairs {
-                self_collision::project(pair, &mut self.p, &self.w, &self.model.triangles, self.thickness);
-            }
-            for pair in &sc.edge_pairs {
-                self_collision::project_edges(pair, &sc.edges, &mut self.p, &self.w, self.thickness);
-            }
+            sc.project(&mut self.p, &self.w, &self.model.triangles, self.thickness);
         }
     }
 
@@ -497,11 +480,6 @@ impl Pbd {
     /// Linear momentum of collider `i` (zero for a scripted one), kg·m/s.
     pub fn body_momentum(&self, i: usize) -> DVec3 {
         self.bodies.get(i).map_or(DVec3::ZERO, Rigid::momentum)
-    }
-
-    /// The self-collision pairs of the last substep.
-    pub fn self_collision_pairs(&self) -> usize {
-        self.self_collision.as_ref().map_or(0, |s| s.pairs.len())
     }
 
     fn all_params(&self) -> Vec<ParamSpec> {
@@ -638,8 +616,9 @@ impl Solver for Pbd {
 
     fn info(&self) -> Vec<(&'static str, f64)> {
         let mut info = vec![("contacts", self.touches.len() as f64)];
-        if self.self_collision.is_some() {
-            info.push(("self-collision pairs", self.self_collision_pairs() as f64));
+        if let Some(sc) = &self.self_collision {
+            info.push(("self-collision pairs", (sc.pairs.len() + sc.edge_pairs.len()) as f64));
+            info.push(("self-collision searches", sc.searches as f64));
         }
         info
     }
