@@ -160,3 +160,23 @@ fn a_small_box_does_not_pass_through_a_coarse_sheet() {
     assert!(above > -0.01, "the box fell through ({above} m)");
     assert!(momentum < 0.05 * 0.05, "still moving: {momentum:.2e}");
 }
+
+#[test]
+fn a_diverging_setting_is_reported_and_the_solver_recovers_on_reset() {
+    // A gale of 10¹² m/s: the aerodynamic drag overflows the first step.
+    for method in ["pbd", "xpbd"] {
+        let setup =
+            scene::load("flag", &[format!("solver.method={method}"), "wind.velocity=[1e12, 0, 3e11]".into()]).unwrap();
+        let mut s = solver::build(&setup).unwrap();
+        match s.step() {
+            Err(shellwarp::solver::SolverError::Diverged { step, reason, .. }) => {
+                assert_eq!(step, 1);
+                assert!(reason.contains("non-finite"), "{reason}");
+            }
+            other => panic!("{method}: expected divergence, got {other:?}"),
+        }
+        s.reset();
+        assert!(s.positions().iter().all(|p| p.is_finite()), "{method}: reset brings back the rest shape");
+        assert_eq!(s.positions(), setup.mesh.positions());
+    }
+}

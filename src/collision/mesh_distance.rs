@@ -7,6 +7,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use super::CollisionError;
+use super::closest::{self, Feature, closest_on_triangle};
 use crate::mesh::TriMesh;
 
 const LEAF_SIZE: usize = 4;
@@ -21,15 +22,6 @@ struct Node {
     count: usize,
     /// Inner node: index of the right child.
     right: usize,
-}
-
-/// Which part of a triangle a closest point lies on.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Feature {
-    Face,
-    /// The edge from local vertex `k` to `k + 1`.
-    Edge(usize),
-    Vertex(usize),
 }
 
 /// A closed triangle mesh prepared for signed-distance queries.
@@ -105,7 +97,8 @@ impl MeshDistance {
             if node.count > 0 {
                 for &t in &self.order[node.start..node.start + node.count] {
                     let tri = self.triangles[t].map(|v| self.positions[v]);
-                    let (p, feature) = closest_on_triangle(x, tri);
+                    let (weights, feature) = closest_on_triangle(x, tri);
+                    let p = closest::at(tri, weights);
                     let d2 = (x - p).length_squared();
                     if d2 < best.0 {
                         best = (d2, t, p, feature);
@@ -176,40 +169,6 @@ fn build(
 
 fn box_distance_squared(x: DVec3, min: DVec3, max: DVec3) -> f64 {
     (min - x).max(x - max).max(DVec3::ZERO).length_squared()
-}
-
-/// The closest point of triangle `[a, b, c]` to `p` and the feature it lies on (Ericson,
-/// *Real-Time Collision Detection*, §5.1.5, by Voronoi regions).
-fn closest_on_triangle(p: DVec3, [a, b, c]: [DVec3; 3]) -> (DVec3, Feature) {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return (a, Feature::Vertex(0));
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return (b, Feature::Vertex(1));
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return (a + ab * (d1 / (d1 - d3)), Feature::Edge(0));
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return (c, Feature::Vertex(2));
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return (a + ac * (d2 / (d2 - d6)), Feature::Edge(2));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))), Feature::Edge(1));
-    }
-    let denom = 1.0 / (va + vb + vc);
-    (a + ab * (vb * denom) + ac * (vc * denom), Feature::Face)
 }
 
 #[cfg(test)]

@@ -1,14 +1,16 @@
 //! Rigid bodies that cloth collides with: spheres, planes and closed triangle meshes, each placed by
 //! a scripted motion (constant velocity, oscillation, spin). A query gives the signed distance,
-//! outward normal and the body's surface velocity at a point — what contact handling needs.
+//! outward normal and the body's surface velocity at a point — what contact handling needs. Also the
+//! geometry of self-collision: closest points ([`closest`]) and a refittable hierarchy of a
+//! deforming mesh's triangles ([`bvh`]).
 
 mod body;
+pub mod bvh;
+pub mod closest;
 mod mesh_distance;
-mod spatial_hash;
 
 pub use body::{Body, Contact, Motion, Placed, Shape};
 pub use mesh_distance::MeshDistance;
-pub use spatial_hash::SpatialHash;
 
 /// Why a body could not be made.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]

@@ -1,6 +1,6 @@
 //! Realising a validated scene: make the mesh, place it, and resolve anchors and loads to vertices.
 
-use glam::{DQuat, DVec3, EulerRot};
+use glam::{DMat3, DQuat, DVec3, EulerRot};
 
 use super::schema::{Collider, MeshSource, Motion, Placement, Scene, Selection};
 use super::{Origin, SceneError};
@@ -132,12 +132,30 @@ fn body(collider: &Collider, origin: &Origin) -> Result<Body, String> {
     })
 }
 
+/// The rotation by `deg` about x, then y, then z in the body frame (glam's `EulerRot::XYZ`), exact for
+/// right angles: a mesh turned by 90° lies exactly in its new plane, not 6e-17 out of it (which a
+/// hanging sheet's buckling would otherwise grow into a visible, asymmetric fold).
+fn rotation(deg: [f64; 3]) -> DMat3 {
+    let cos_sin = |d: f64| {
+        if d.rem_euclid(90.0) == 0.0 {
+            [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)][(d.rem_euclid(360.0) / 90.0) as usize]
+        } else {
+            let r = d.to_radians();
+            (r.cos(), r.sin())
+        }
+    };
+    let [(cx, sx), (cy, sy), (cz, sz)] = deg.map(cos_sin);
+    let rx = DMat3::from_cols(DVec3::X, DVec3::new(0.0, cx, sx), DVec3::new(0.0, -sx, cx));
+    let ry = DMat3::from_cols(DVec3::new(cy, 0.0, -sy), DVec3::Y, DVec3::new(sy, 0.0, cy));
+    let rz = DMat3::from_cols(DVec3::new(cz, sz, 0.0), DVec3::new(-sz, cz, 0.0), DVec3::Z);
+    rx * ry * rz
+}
+
 fn place(mesh: &TriMesh, p: &Placement) -> Result<TriMesh, MeshError> {
     if *p == Placement::default() {
         return Ok(mesh.clone());
     }
-    let [rx, ry, rz] = p.rotate_deg.map(f64::to_radians);
-    let q = DQuat::from_euler(EulerRot::XYZ, rx, ry, rz);
+    let q = rotation(p.rotate_deg);
     let t = DVec3::from(p.translate);
     let placed: Vec<DVec3> = mesh.positions().iter().map(|&x| q * (x * p.scale) + t).collect();
     if p.copies <= 1 {
@@ -191,4 +209,20 @@ fn select(mesh: &TriMesh, s: &Selection) -> Result<Vec<usize>, String> {
         return Err("selects no vertex".into());
     }
     Ok(picked)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rotations_match_glam_and_are_exact_at_right_angles() {
+        for deg in [[90.0, 0.0, 0.0], [30.0, -45.0, 120.0], [84.0, 10.0, 0.0], [-90.0, 180.0, 270.0]] {
+            let [rx, ry, rz] = deg.map(f64::to_radians);
+            let want = DMat3::from_quat(DQuat::from_euler(EulerRot::XYZ, rx, ry, rz));
+            assert!(rotation(deg).abs_diff_eq(want, 1e-15), "{deg:?}");
+        }
+        let turned = rotation([90.0, 0.0, 0.0]) * DVec3::new(0.3, 0.0, 0.7);
+        assert_eq!(turned, DVec3::new(0.3, -0.7, 0.0), "exactly in the xy plane");
+    }
 }

@@ -100,6 +100,7 @@ impl Solver for DsImplicit {
     fn step(&mut self) -> Result<StepStats, SolverError> {
         let start = Instant::now();
         self.model.apply_drags(&self.drags, &mut self.x, &mut self.v)?;
+        self.model.blow(self.time, &self.x, &self.v);
         let previous = self.x.clone();
         // Start Newton from the inertial prediction x + h v.
         let mut y: Vec<DVec3> = self.x.iter().zip(&self.v).map(|(x, v)| *x + *v * self.h).collect();

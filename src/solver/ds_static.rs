@@ -95,7 +95,10 @@ impl DsStatic {
     /// Walk the load path from `settled` to the current loads (see the module doc). Leaves the model's
     /// forces at the current loads; the report's iterations are the total over all stages.
     fn continuation(&mut self) -> Result<NewtonReport, SolverError> {
-        let target = self.model.scene_forces();
+        // The wind on the shell as it stands (at rest: no velocity of its own), held over the step;
+        // successive steps carry it to the equilibrium of the load that follows the shape.
+        let still = vec![DVec3::ZERO; self.x.len()];
+        let target = self.model.loads(self.steps as f64 * self.time_step(), &self.x, &still);
         let from = self.settled.clone();
         let load = |t: f64| -> Vec<DVec3> { from.iter().zip(&target).map(|(a, b)| *a + (*b - *a) * t).collect() };
         let (mut t, mut increment) = (0.0, self.increment);

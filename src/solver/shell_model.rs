@@ -11,6 +11,7 @@
 
 use glam::DVec3;
 
+use super::wind::Wind;
 use super::{DragKind, DragSet, ParamSpec, ParamValue, SolverError};
 use crate::energy::{DiscreteShell, HessianMode, ShellStiffness};
 use crate::linalg::{BlockAssembler, DofMap, SparseCholesky};
@@ -53,6 +54,9 @@ pub struct ShellModel {
     loads: Vec<DVec3>,
     f_ext: Vec<DVec3>,
     density: f64,
+    /// The scene's wind, and whether the external forces hold some of it.
+    wind: Wind,
+    blown: bool,
     /// Rayleigh mass damping α, 1/s.
     pub alpha: f64,
     /// Rayleigh stiffness damping β, s.
@@ -83,6 +87,8 @@ impl ShellModel {
             loads: setup.loads.clone(),
             f_ext: Vec::new(),
             density: m.density,
+            wind: Wind::new(&setup.scene.wind),
+            blown: false,
             alpha: setup.scene.solver.rayleigh_alpha,
             beta: setup.scene.solver.rayleigh_beta,
             asm,
@@ -101,6 +107,21 @@ impl ShellModel {
     /// The external forces the parameters define: gravity on the lumped masses plus point loads, N.
     pub(crate) fn scene_forces(&self) -> Vec<DVec3> {
         self.masses.iter().zip(&self.loads).map(|(&m, &l)| self.gravity * m + l).collect()
+    }
+
+    /// The scene's forces plus the wind's on the shell at `x` moving with `v` at time `t`, N.
+    pub(crate) fn loads(&self, t: f64, x: &[DVec3], v: &[DVec3]) -> Vec<DVec3> {
+        self.wind.forces(t, (x, v), self.mesh.triangles(), &self.scene_forces())
+    }
+
+    /// Make the external forces the scene's plus the wind's at this state (nothing to do in calm air
+    /// that was calm before): the wind is taken at the start of each step (or substep) and held over it.
+    pub(crate) fn blow(&mut self, t: f64, x: &[DVec3], v: &[DVec3]) {
+        let calm = self.wind.is_calm();
+        if !calm || self.blown {
+            self.f_ext = self.loads(t, x, v);
+        }
+        self.blown = !calm;
     }
 
     /// Replace the external forces (a stage of a load path) until the next parameter change, which
@@ -238,15 +259,21 @@ impl ShellModel {
         Ok(changed)
     }
 
-    /// Current values of [`SHELL_PARAMS`].
+    /// Current values of [`SHELL_PARAMS`] and the wind's.
     pub(crate) fn params(&self) -> Vec<ParamValue> {
         let k = self.shell.stiffness();
         let values = [k.k_area, k.k_length, k.k_bend, self.density, self.gravity.y, self.alpha, self.beta];
-        SHELL_PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect()
+        let mut p: Vec<ParamValue> =
+            SHELL_PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect();
+        p.extend(self.wind.params());
+        p
     }
 
-    /// Set one of [`SHELL_PARAMS`]; `Ok(false)` if `name` is not one of them.
+    /// Set one of [`SHELL_PARAMS`] or the wind's; `Ok(false)` if `name` is none of them.
     pub(crate) fn set_param(&mut self, method: &'static str, name: &str, value: f64) -> Result<bool, SolverError> {
+        if self.wind.set_param(name, value)? {
+            return Ok(true);
+        }
         let Some(spec) = SHELL_PARAMS.iter().find(|s| s.name == name) else { return Ok(false) };
         let value = ParamSpec::find(method, &SHELL_PARAMS, spec.name)?.check(value)?;
         let mut k = self.shell.stiffness();

@@ -11,6 +11,19 @@
 use glam::DVec3;
 
 use crate::scene::WindSpec;
+use crate::solver::{ParamSpec, ParamValue, SolverError};
+
+const fn spec(name: &'static str, label: &'static str, unit: &'static str, help: &'static str) -> ParamSpec {
+    ParamSpec { name, label, unit, help, min: -100.0, max: 100.0, log_scale: false, integer: false }
+}
+
+/// The wind's parameters, the same in every method's panel: the mean air velocity and the gusts.
+pub const PARAMS: [ParamSpec; 4] = [
+    spec("wind_x", "wind x", "m/s", "Mean air velocity, x component (drag on the cloth's or shell's triangles)."),
+    spec("wind_y", "wind y", "m/s", "Mean air velocity, y component."),
+    spec("wind_z", "wind z", "m/s", "Mean air velocity, z component."),
+    ParamSpec { min: 0.0, max: 1.0, ..spec("wind_gust", "gusts", "", "Relative amplitude of the gusts (0: steady).") },
+];
 
 /// The wind of a scene.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -67,6 +80,39 @@ impl Wind {
             .sum::<f64>()
             / GUST_HARMONICS.iter().map(|m| 1.0 / m.sqrt()).sum::<f64>();
         self.velocity * (1.0 + self.gust * s)
+    }
+
+    /// Current values of [`PARAMS`].
+    pub fn params(&self) -> Vec<ParamValue> {
+        let values = [self.velocity.x, self.velocity.y, self.velocity.z, self.gust];
+        PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect()
+    }
+
+    /// Set one of [`PARAMS`] (checked against its range); `Ok(false)` if `name` is not one of them.
+    pub fn set_param(&mut self, name: &str, value: f64) -> Result<bool, SolverError> {
+        let Some(spec) = PARAMS.iter().find(|s| s.name == name) else { return Ok(false) };
+        let value = spec.check(value)?;
+        match name {
+            "wind_x" => self.velocity.x = value,
+            "wind_y" => self.velocity.y = value,
+            "wind_z" => self.velocity.z = value,
+            _ => self.gust = value,
+        }
+        Ok(true)
+    }
+
+    /// `base` plus the wind's force on every vertex (N), for the mesh at `positions` moving with
+    /// `velocities`, at time `t`.
+    pub fn forces(
+        &self,
+        t: f64,
+        (positions, velocities): (&[DVec3], &[DVec3]),
+        triangles: &[[usize; 3]],
+        base: &[DVec3],
+    ) -> Vec<DVec3> {
+        let mut f = base.to_vec();
+        self.add_forces(t, positions, velocities, triangles, &mut f);
+        f
     }
 
     /// Add the wind's force on every vertex (N) to `forces`, for the mesh at `positions` moving with

@@ -13,6 +13,7 @@ use crate::linalg::filtered_pcg::{self, Constraint, PcgReport, Stop};
 use crate::linalg::padded::PaddedMat3;
 use crate::scene::{MeshSource, Setup};
 use crate::solver::registry::Method;
+use crate::solver::wind::{self, Wind};
 use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Solver, SolverError, StepStats, check_finite};
 
 /// Registry entry of the triangle-mesh cloth (Noh & Jung).
@@ -146,6 +147,9 @@ pub struct Cloth {
     held: Vec<bool>,
     anchored: Vec<bool>,
     gravity: DVec3,
+    /// The scene's wind, on the mesh's triangles.
+    wind: Wind,
+    triangles: Vec<[usize; 3]>,
     density: f64,
     h: f64,
     iterations: u32,
@@ -218,6 +222,8 @@ impl Cloth {
             rest,
             anchored: setup.anchored_mask(),
             gravity: setup.gravity(),
+            wind: Wind::new(&setup.scene.wind),
+            triangles: setup.mesh.triangles().to_vec(),
             density,
             h,
             iterations,
@@ -259,6 +265,12 @@ impl Cloth {
         step.preconditioner.resize(n, PaddedMat3::default());
         step.constraints.clear();
         self.system.linearise((&self.x, &self.v), self.gravity, h, &mut step.rhs, &mut step.preconditioner);
+        if !self.wind.is_calm() {
+            // The wind at the start of the step, held over it (explicitly, like the loads).
+            let mut f = vec![DVec3::ZERO; n];
+            self.wind.add_forces(self.time, &self.x, &self.v, &self.triangles, &mut f);
+            self.system.add_forces(&f, h, &mut step.rhs);
+        }
         self.hold(h, &mut step.constraints);
         self.contacts.constrain(
             &self.bodies,
@@ -396,11 +408,18 @@ impl Solver for Cloth {
             self.tolerance,
             self.contact.margin,
         ];
-        PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect()
+        let mut all: Vec<ParamValue> =
+            PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect();
+        all.extend(self.wind.params());
+        all
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
-        let value = ParamSpec::find(self.method, &PARAMS, name)?.check(value)?;
+        if self.wind.set_param(name, value)? {
+            return Ok(());
+        }
+        let all: Vec<ParamSpec> = PARAMS.iter().chain(&wind::PARAMS).copied().collect();
+        let value = ParamSpec::find(self.method, &all, name)?.check(value)?;
         let mut p = self.system.params();
         match name {
             "k_s" => p.k_s = value,

@@ -170,6 +170,13 @@ impl ClothSystem {
         isa::best(Linearise { system: self, state: (x, v), g, h, out: (rhs, preconditioner) });
     }
 
+    /// Add external forces `f` (N per particle, held over a step of `h`) to a right side made by
+    /// [`Self::linearise`] (whose rows are scaled by the particles' valence weights, as gravity's are).
+    pub fn add_forces(&self, f: &[DVec3], h: f64, rhs: &mut [DVec3]) {
+        let weights = &self.graph.weights;
+        rhs.iter_mut().zip(f).zip(weights).for_each(|((b, f), w)| *b += *f * (h / w));
+    }
+
     /// [`Self::linearise`], compiled for whatever instruction set its caller is.
     #[inline(always)]
     fn linearise_here(

@@ -91,6 +91,12 @@ impl ModalDynamics {
         self.update_positions();
     }
 
+    /// Replace the external forces from the end of the coming step on (its positions update projects
+    /// them onto the modes), without recomputing anything now: for forces that follow the motion.
+    pub fn hold_forces(&mut self, forces: &[DVec3]) {
+        self.forces = ChunkedVectors::new(forces, self.rest.len());
+    }
+
     /// Swap in a new basis, carrying the state over by projecting the current displacement and
     /// velocity onto it (`q' = Φ'ᵀ M Φ q`, exact when the new basis spans the old one).
     pub fn replace_basis(&mut self, basis: ModalBasis, masses: &[f64]) {

@@ -21,6 +21,7 @@ use crate::energy::ShellStiffness;
 use crate::mesh::TriMesh;
 use crate::scene::Setup;
 use crate::solver::registry::Method;
+use crate::solver::wind::{self, Wind};
 use crate::solver::{DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
 
 /// Registry entry: linear modal analysis.
@@ -132,6 +133,11 @@ pub struct ModalSolver {
     request: Request,
     loads: Vec<DVec3>,
     gravity: DVec3,
+    /// The scene's wind, whether the modal force holds some of it, and the positions a step ago (for
+    /// the shell's velocity).
+    wind: Wind,
+    blown: bool,
+    previous: Vec<DVec3>,
     params: ModalParams,
     dynamics: ModalDynamics,
     analysis: ModalAnalysis,
@@ -179,6 +185,9 @@ impl ModalSolver {
             request,
             loads: setup.loads.clone(),
             gravity: setup.gravity(),
+            wind: Wind::new(&setup.scene.wind),
+            blown: false,
+            previous: setup.mesh.positions().to_vec(),
             params,
             analysis,
             drags: DragSet::new(setup.mesh.vertex_count(), true),
@@ -195,10 +204,31 @@ impl ModalSolver {
         &self.analysis
     }
 
-    fn update_forces(&mut self) {
+    /// Gravity on the lumped masses plus the point loads, N.
+    fn scene_forces(&self) -> Vec<DVec3> {
         let masses = self.request.masses();
-        let forces = masses.iter().zip(&self.loads).map(|(m, l)| self.gravity * *m + *l).collect();
-        self.dynamics.set_forces(forces);
+        masses.iter().zip(&self.loads).map(|(m, l)| self.gravity * *m + *l).collect()
+    }
+
+    fn update_forces(&mut self) {
+        self.dynamics.set_forces(self.scene_forces());
+    }
+
+    /// The wind on the shell as the last step left it (its velocity from the step before), projected
+    /// onto the modes with the coming step's positions update, like gravity: held over a step, as the
+    /// modal force always is. Calm air that was calm before costs nothing.
+    fn blow(&mut self) {
+        let calm = self.wind.is_calm();
+        if calm && !self.blown {
+            return;
+        }
+        let x = self.dynamics.positions();
+        let h = self.params.step;
+        let v: Vec<DVec3> = x.iter().zip(&self.previous).map(|(a, b)| (*a - *b) / h).collect();
+        let time = self.steps as f64 * h;
+        let forces = self.wind.forces(time, (x, &v), self.request.mesh.triangles(), &self.scene_forces());
+        self.dynamics.hold_forces(&forces);
+        self.blown = !calm;
     }
 
     /// Start recomputing the modes for the current parameters on a background thread.
@@ -270,6 +300,8 @@ impl Solver for ModalSolver {
     fn step(&mut self) -> Result<StepStats, SolverError> {
         let start = Instant::now();
         self.poll_pending()?;
+        self.blow();
+        self.previous.copy_from_slice(self.dynamics.positions());
         self.dynamics.step(&self.params, &self.drags);
         self.steps += 1;
         let time = self.steps as f64 * self.params.step;
@@ -299,6 +331,7 @@ impl Solver for ModalSolver {
 
     fn reset(&mut self) {
         self.dynamics.reset();
+        self.previous.copy_from_slice(self.dynamics.positions());
         self.steps = 0;
     }
 
@@ -315,11 +348,18 @@ impl Solver for ModalSolver {
             self.params.step,
             self.params.constraint_damping,
         ];
-        PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect()
+        let mut all: Vec<ParamValue> =
+            PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect();
+        all.extend(self.wind.params());
+        all
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
-        let value = ParamSpec::find(self.method, &PARAMS, name)?.check(value)?;
+        if self.wind.set_param(name, value)? {
+            return Ok(());
+        }
+        let all: Vec<ParamSpec> = PARAMS.iter().chain(&wind::PARAMS).copied().collect();
+        let value = ParamSpec::find(self.method, &all, name)?.check(value)?;
         let needs_modes = matches!(name, "k_area" | "k_length" | "k_bend" | "density" | "modes");
         match name {
             "k_area" => self.request.stiffness.k_area = value,

@@ -14,6 +14,7 @@
 use glam::DVec3;
 
 use super::bodies::Rigid;
+use crate::collision::closest::closest_on_triangle;
 
 /// A particle touching (or about to touch) a body during a substep, and the normal correction it got.
 #[derive(Debug, Clone, Copy)]
@@ -38,44 +39,6 @@ pub struct SampleHit {
     pub triangle: usize,
     /// +1 above the triangle's front, −1 below.
     pub side: f64,
-}
-
-/// Barycentric coordinates of the point of triangle `(a, b, c)` closest to `p` (Ericson's
-/// "Real-Time Collision Detection", 5.1.5).
-pub fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return [1.0, 0.0, 0.0];
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return [0.0, 1.0, 0.0];
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let v = d1 / (d1 - d3);
-        return [1.0 - v, v, 0.0];
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return [0.0, 0.0, 1.0];
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let w = d2 / (d2 - d6);
-        return [1.0 - w, 0.0, w];
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return [0.0, 1.0 - w, w];
-    }
-    let denom = 1.0 / (va + vb + vc);
-    let (v, w) = (vb * denom, vc * denom);
-    [1.0 - v - w, v, w]
 }
 
 /// Push particle `p` (inverse mass `w`, at `start` when the substep of `h` began) out of `body` to
@@ -120,7 +83,7 @@ pub fn push_particle(
 
 /// Keep a sphere body `radius + thickness` away from triangle `t` (vertex inverse masses `w`).
 pub fn push_sphere(body: &mut Rigid, radius: f64, p: &mut [DVec3], w: &[f64], t: [usize; 3], thickness: f64) {
-    let b = closest_on_triangle(body.centre, p[t[0]], p[t[1]], p[t[2]]);
+    let (b, _) = closest_on_triangle(body.centre, t.map(|i| p[i]));
     let q = p[t[0]] * b[0] + p[t[1]] * b[1] + p[t[2]] * b[2];
     let d = body.centre - q;
     let dist = d.length();
@@ -150,7 +113,7 @@ pub fn push_sample(body: &mut Rigid, hit: &SampleHit, p: &mut [DVec3], w: &[f64]
         return;
     }
     let n = normal / len * hit.side;
-    let bary = closest_on_triangle(s, a, b, c);
+    let (bary, _) = closest_on_triangle(s, [a, b, c]);
     // Only over the triangle's interior (its edges and corners belong to its neighbours).
     if bary.iter().any(|&x| x <= 0.0) {
         return;
@@ -194,23 +157,5 @@ pub fn push_body(body: &mut Rigid, ground: &Rigid, h: f64, mu: (f64, f64)) {
             let wt = body.inverse_mass_at(moved, t);
             body.apply_position_impulse(moved, -t * (undo / wt));
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn closest_points_on_a_triangle_in_each_region() {
-        let (a, b, c) = (DVec3::ZERO, DVec3::X, DVec3::Y);
-        let at = |p: DVec3| {
-            let w = closest_on_triangle(p, a, b, c);
-            a * w[0] + b * w[1] + c * w[2]
-        };
-        assert!((at(DVec3::new(0.2, 0.3, 1.0)) - DVec3::new(0.2, 0.3, 0.0)).length() < 1e-15, "interior");
-        assert!((at(DVec3::new(-1.0, -1.0, 0.0)) - a).length() < 1e-15, "vertex region");
-        assert!((at(DVec3::new(0.5, -1.0, 0.0)) - DVec3::new(0.5, 0.0, 0.0)).length() < 1e-15, "edge region");
-        assert!((at(DVec3::new(1.0, 1.0, 0.0)) - DVec3::new(0.5, 0.5, 0.0)).length() < 1e-15, "hypotenuse");
     }
 }

@@ -27,6 +27,7 @@ mod contact;
 mod model;
 mod project;
 mod self_collision;
+mod self_contact;
 
 use std::time::Instant;
 
@@ -41,10 +42,8 @@ use crate::collision::Shape;
 use crate::energy::constraints;
 use crate::scene::Setup;
 use crate::solver::registry::Method;
-use crate::solver::wind::Wind;
+use crate::solver::wind::{self, Wind};
 use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Solver, SolverError, StepStats, check_finite};
-
-pub use self::contact::closest_on_triangle;
 
 /// Registry entry of position-based dynamics.
 pub const PBD: Method = Method {
@@ -146,6 +145,7 @@ const XPBD_PARAMS: [ParamSpec; 3] = [
 ];
 
 /// The position-based cloth.
+#[derive(Clone)]
 pub struct Pbd {
     variant: Variant,
     model: Model,
@@ -222,9 +222,10 @@ impl Pbd {
             forces: vec![DVec3::ZERO; n],
             initial_bodies: bodies.clone(),
             bodies,
-            self_collision: s
-                .self_collision
-                .then(|| SelfCollision::new(model.mean_edge, model.edges.iter().map(|e| e.v).collect())),
+            self_collision: s.self_collision.then(|| {
+                let edges = model.edges.iter().map(|e| e.v).collect();
+                SelfCollision::new(&model.rest, &model.triangles, edges, model.mean_edge)
+            }),
             wind: Wind::new(&setup.scene.wind),
             drags: DragSet::new(n, false),
             step: check("step", s.step.unwrap_or(1.0 / 60.0))?,
@@ -356,6 +357,9 @@ impl Pbd {
         for i in 0..n {
             self.v[i] = if self.w[i] > 0.0 { (self.p[i] - self.x[i]) / h } else { DVec3::ZERO };
             self.x[i] = self.p[i];
+        }
+        if let Some(sc) = &self.self_collision {
+            sc.settle(&self.x, &mut self.v, &self.w, &self.model.triangles, self.thickness);
         }
         for b in &mut self.bodies {
             b.finish(h);
@@ -561,11 +565,16 @@ impl Solver for Pbd {
                 };
                 ParamValue { spec, value }
             })
+            .chain(self.wind.params())
             .collect()
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
-        let value = ParamSpec::find(self.method_name(), &self.all_params(), name)?.check(value)?;
+        if self.wind.set_param(name, value)? {
+            return Ok(());
+        }
+        let all: Vec<ParamSpec> = self.all_params().into_iter().chain(wind::PARAMS).collect();
+        let value = ParamSpec::find(self.method_name(), &all, name)?.check(value)?;
         match name {
             "step" => self.step = value,
             "iterations" => self.iterations = value as usize,
@@ -618,6 +627,7 @@ impl Solver for Pbd {
         let mut info = vec![("contacts", self.touches.len() as f64)];
         if let Some(sc) = &self.self_collision {
             info.push(("self-collision pairs", (sc.pairs.len() + sc.edge_pairs.len()) as f64));
+            info.push(("self-collision pairs in reach", sc.active() as f64));
             info.push(("self-collision searches", sc.searches as f64));
         }
         info

@@ -1,0 +1,72 @@
+//! Position-based cloth, one frame of 1/60 s (all its substeps): the 961-particle drape by `xpbd` and
+//! by `pbd`, falling onto the ball and at rest on it; the `pile` (715 particles, self-collision) while
+//! it folds onto the ground and at rest; and 10,000-particle sheets with self-collision on, at the
+//! pile's substeps and iterations: the hanging sheet swinging from its two clips, and the pile itself
+//! refined (segments 38 × 255, thickness scaled with the edges) while it folds.
+//! Run: `cargo bench --bench pbd`.
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
+use shellwarp::scene;
+use shellwarp::solver::Solver;
+use shellwarp::solver::pbd::{Pbd, Variant};
+
+/// The scene with `sets`, after `frames` frames.
+fn state(scene_name: &str, sets: &[&str], variant: Variant, frames: usize) -> Pbd {
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    let setup = scene::load(scene_name, &sets).expect("scene");
+    let mut cloth = Pbd::new(&setup, variant).expect("cloth");
+    for _ in 0..frames {
+        cloth.step().expect("step");
+    }
+    cloth
+}
+
+/// `xpbd` on the drape: 1/60 s frames of 10 substeps of one iteration.
+const DRAPE_XPBD: [&str; 4] =
+    ["solver.step=0.0166666666666667", "solver.substeps=10", "solver.iterations=1", "solver.method=xpbd"];
+
+/// The pile's settings on a sheet of 10,000 particles.
+const SHEET: [&str; 6] = [
+    "mesh.grid.segments=[99,99]",
+    "solver.step=0.0166666666666667",
+    "solver.substeps=4",
+    "solver.iterations=2",
+    "solver.self_collision=true",
+    "solver.thickness=0.002",
+];
+
+fn frames(c: &mut Criterion) {
+    let mut group = c.benchmark_group("pbd frame");
+    group.sample_size(10).measurement_time(Duration::from_secs(5));
+    let cases = [
+        ("drape, 961 particles, xpbd, falling onto the ball", state("drape", &DRAPE_XPBD, Variant::Xpbd, 18)),
+        ("drape, 961 particles, xpbd, at rest on the ball", state("drape", &DRAPE_XPBD, Variant::Xpbd, 180)),
+        ("pbd-drape, 961 particles, pbd, falling onto the ball", state("pbd-drape", &[], Variant::Pbd, 18)),
+        ("pile, 715 particles, folding", state("pile", &[], Variant::Xpbd, 40)),
+        ("pile, 715 particles, at rest", state("pile", &[], Variant::Xpbd, 300)),
+        (
+            "hanging sheet, 10,000 particles, self-collision, swinging",
+            state("hanging-sheet", &SHEET, Variant::Xpbd, 20),
+        ),
+        (
+            "pile, 9,984 particles, folding",
+            state("pile", &["mesh.grid.segments=[38,255]", "solver.thickness=0.0016"], Variant::Xpbd, 40),
+        ),
+    ];
+    for (name, cloth) in cases {
+        group.bench_function(name, |b| {
+            b.iter_batched(
+                || cloth.clone(),
+                |mut c| black_box(c.step().expect("step").iterations),
+                BatchSize::LargeInput,
+            )
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, frames);
+criterion_main!(benches);

@@ -1,0 +1,310 @@
+//! A bounding-volume hierarchy over a mesh's triangles for self-collision: built once from the rest
+//! shape (each node splits its triangles at the median of their centroids along its longest axis, so
+//! a node is a compact patch of the mesh), its boxes refitted from the current positions before each
+//! query, and queried for every pair of triangles whose boxes overlap.
+//!
+//! The query descends from the root paired with itself: a node against itself is its children against
+//! themselves and against each other; two nodes whose boxes are apart are skipped with everything
+//! below them. Pairs come in a fixed order (depth first, left before right), the same every run.
+//!
+//! A node is not paired with itself when its patch is flat enough that nothing in it can be within
+//! reach of anything else in it (Volino & Magnenat-Thalmann's normal-cone test, made quantitative):
+//! its triangles' normals lie within 45° of one axis, so the patch is a graph over the plane across
+//! that axis with slopes below 1, and two points of it are at least `cos 45°` times their distance
+//! along the surface apart; vertices and edges that share no corner are at least the patch's smallest
+//! triangle altitude apart along the surface (less 10% for stretch). When that bound exceeds the
+//! largest reach asked of the patch's triangles, the patch cannot hold a pair within reach. A patch is
+//! a subtree of the rest-shape split, compact and simply connected, so it cannot wind round onto
+//! itself without shearing by far more than cloth does.
+
+use glam::DVec3;
+
+/// No child: a leaf.
+const LEAF: u32 = u32::MAX;
+
+/// `cos 45°`: the widest normal cone of a patch that can be flat.
+const FLAT: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// A cone of directions: an axis and the cosine and sine of the half-angle (a cosine of −1: every
+/// direction).
+#[derive(Debug, Clone, Copy)]
+struct Cone {
+    axis: DVec3,
+    cos: f64,
+    sin: f64,
+}
+
+impl Cone {
+    const ALL: Cone = Cone { axis: DVec3::Z, cos: -1.0, sin: 0.0 };
+
+    /// A cone holding both, without trigonometric functions (angles added by their cosines and sines).
+    fn merge(a: Cone, b: Cone) -> Cone {
+        if a.cos <= -1.0 || b.cos <= -1.0 {
+            return Cone::ALL;
+        }
+        let sum = a.axis + b.axis;
+        if sum.length_squared() < 1e-24 {
+            return Cone::ALL;
+        }
+        let axis = sum.normalize();
+        // The half-angle reaching each child's far side: the angle to its axis plus its own.
+        let reach = |c: Cone| {
+            let (cos_b, sin_b) = (axis.dot(c.axis), axis.cross(c.axis).length());
+            (cos_b * c.cos - sin_b * c.sin, sin_b * c.cos + cos_b * c.sin)
+        };
+        let (ra, rb) = (reach(a), reach(b));
+        let (cos, sin) = if ra.0 <= rb.0 { ra } else { rb };
+        if sin < 0.0 { Cone::ALL } else { Cone { axis, cos, sin } }
+    }
+}
+
+/// A node: its box, normal cone, largest reach and smallest altitude, and either two children or one
+/// triangle.
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    lo: DVec3,
+    hi: DVec3,
+    cone: Cone,
+    reach: f64,
+    altitude: f64,
+    children: [u32; 2],
+    triangle: u32,
+}
+
+/// What the query needs of a triangle at present.
+#[derive(Debug, Clone, Copy)]
+pub struct Leaf {
+    /// Its box (grown as the caller needs).
+    pub lo: DVec3,
+    /// Its box's other corner.
+    pub hi: DVec3,
+    /// Its unit normal (zero if degenerate).
+    pub normal: DVec3,
+    /// How near another primitive must be to it to count.
+    pub reach: f64,
+}
+
+/// The hierarchy.
+#[derive(Debug, Clone, Default)]
+pub struct TriangleTree {
+    /// In depth-first order: a node's children come after it.
+    nodes: Vec<Node>,
+    /// Scratch for the query.
+    stack: Vec<[u32; 2]>,
+}
+
+impl TriangleTree {
+    /// The hierarchy of these triangles, split by their centroids at `rest`.
+    pub fn new(rest: &[DVec3], triangles: &[[usize; 3]]) -> Self {
+        let centroids: Vec<DVec3> = triangles.iter().map(|t| (rest[t[0]] + rest[t[1]] + rest[t[2]]) / 3.0).collect();
+        // A triangle's smallest altitude: twice its area over its longest side.
+        let altitudes: Vec<f64> = triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| rest[i]);
+                let longest = (b - a).length().max((c - b).length()).max((a - c).length());
+                if longest > 0.0 { (b - a).cross(c - a).length() / longest } else { 0.0 }
+            })
+            .collect();
+        let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
+        let mut tree = Self { nodes: Vec::with_capacity(2 * triangles.len()), stack: Vec::new() };
+        if !order.is_empty() {
+            tree.split(&mut order, &centroids, &altitudes);
+        }
+        tree
+    }
+
+    /// Append the subtree of `items` (depth first); returns its index.
+    fn split(&mut self, items: &mut [u32], centroids: &[DVec3], altitudes: &[f64]) -> u32 {
+        let index = self.nodes.len() as u32;
+        let empty = Node {
+            lo: DVec3::ZERO,
+            hi: DVec3::ZERO,
+            cone: Cone::ALL,
+            reach: 0.0,
+            altitude: f64::INFINITY,
+            children: [LEAF; 2],
+            triangle: 0,
+        };
+        if let [only] = items {
+            self.nodes.push(Node { triangle: *only, altitude: altitudes[*only as usize], ..empty });
+            return index;
+        }
+        self.nodes.push(empty);
+        let (lo, hi) = items.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &t| {
+            (lo.min(centroids[t as usize]), hi.max(centroids[t as usize]))
+        });
+        let extent = hi - lo;
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        let middle = items.len() / 2;
+        items.select_nth_unstable_by(middle, |&a, &b| {
+            centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]).then(a.cmp(&b))
+        });
+        let (left, right) = items.split_at_mut(middle);
+        let l = self.split(left, centroids, altitudes);
+        let r = self.split(right, centroids, altitudes);
+        let altitude = self.nodes[l as usize].altitude.min(self.nodes[r as usize].altitude);
+        self.nodes[index as usize].children = [l, r];
+        self.nodes[index as usize].altitude = altitude;
+        index
+    }
+
+    /// Refit every node from its triangles as they are now (`leaf(triangle)`).
+    pub fn refit(&mut self, leaf: impl Fn(usize) -> Leaf) {
+        for k in (0..self.nodes.len()).rev() {
+            let node = self.nodes[k];
+            let (lo, hi, cone, reach) = if node.children[0] == LEAF {
+                let l = leaf(node.triangle as usize);
+                let cone =
+                    if l.normal == DVec3::ZERO { Cone::ALL } else { Cone { axis: l.normal, cos: 1.0, sin: 0.0 } };
+                (l.lo, l.hi, cone, l.reach)
+            } else {
+                let [a, b] = [node.children[0], node.children[1]].map(|c| self.nodes[c as usize]);
+                (a.lo.min(b.lo), a.hi.max(b.hi), Cone::merge(a.cone, b.cone), a.reach.max(b.reach))
+            };
+            let n = &mut self.nodes[k];
+            (n.lo, n.hi, n.cone, n.reach) = (lo, hi, cone, reach);
+        }
+    }
+
+    /// Whether nothing in node `n`'s patch can be within reach of anything else in it.
+    fn flat(n: &Node) -> bool {
+        n.cone.cos >= FLAT && 0.9 * FLAT * n.altitude > n.reach
+    }
+
+    /// Call `found` with every pair of distinct triangles whose boxes overlap, each pair once, except
+    /// pairs within a flat patch (see the module's notes).
+    pub fn overlapping_pairs(&mut self, mut found: impl FnMut(u32, u32)) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let nodes = &self.nodes;
+        let stack = &mut self.stack;
+        stack.clear();
+        stack.push([0, 0]);
+        while let Some([a, b]) = stack.pop() {
+            let (na, nb) = (&nodes[a as usize], &nodes[b as usize]);
+            if a == b {
+                if na.children[0] != LEAF && !Self::flat(na) {
+                    let [l, r] = na.children;
+                    stack.extend([[l, r], [r, r], [l, l]]);
+                }
+                continue;
+            }
+            if na.lo.cmpgt(nb.hi).any() || nb.lo.cmpgt(na.hi).any() {
+                continue;
+            }
+            match (na.children[0] == LEAF, nb.children[0] == LEAF) {
+                (true, true) => found(na.triangle, nb.triangle),
+                // Descend the node with the larger box (or the one that is not a leaf).
+                (false, leaf_b) if leaf_b || (na.hi - na.lo).length_squared() >= (nb.hi - nb.lo).length_squared() => {
+                    stack.extend(na.children.map(|c| [c, b]).into_iter().rev());
+                }
+                _ => stack.extend(nb.children.map(|c| [a, c]).into_iter().rev()),
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every overlapping pair, each once, against all pairs tested by hand.
+    #[test]
+    fn the_pairs_are_exactly_the_overlapping_ones() {
+        let mesh = crate::mesh::generate::grid([1.0, 1.0], [9, 7]).unwrap();
+        let rest = mesh.positions().to_vec();
+        let triangles = mesh.triangles().to_vec();
+        let mut tree = TriangleTree::new(&rest, &triangles);
+        // Fold the sheet over itself, so that far-apart triangles overlap, and grow boxes a little.
+        let x: Vec<DVec3> = rest.iter().map(|p| DVec3::new(p.x.abs(), p.y, 0.05 * p.x.signum())).collect();
+        let bounds = |t: usize| {
+            let (lo, hi) = triangles[t]
+                .iter()
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &i| (lo.min(x[i]), hi.max(x[i])));
+            (lo - 0.02, hi + 0.02)
+        };
+        // Reaches too large for any patch to be flat: every overlapping pair must come out.
+        tree.refit(|t| {
+            let (lo, hi) = bounds(t);
+            Leaf { lo, hi, normal: DVec3::Z, reach: 1.0 }
+        });
+        let mut found = Vec::new();
+        tree.overlapping_pairs(|a, b| found.push([a.min(b), a.max(b)]));
+        let count = found.len();
+        found.sort_unstable();
+        found.dedup();
+        assert_eq!(found.len(), count, "each pair once");
+        let mut brute = Vec::new();
+        for a in 0..triangles.len() {
+            for b in a + 1..triangles.len() {
+                let ((la, ha), (lb, hb)) = (bounds(a), bounds(b));
+                if la.cmple(hb).all() && lb.cmple(ha).all() {
+                    brute.push([a as u32, b as u32]);
+                }
+            }
+        }
+        assert_eq!(found, brute);
+        assert!(
+            found.iter().any(|&[a, b]| (triangles[a as usize].iter().all(|&i| rest[i].x < 0.0))
+                && triangles[b as usize].iter().all(|&i| rest[i].x > 0.0)),
+            "the folded halves meet"
+        );
+    }
+
+    /// With small reaches, flat patches are not searched within, yet every pair of triangles sharing
+    /// no corner that is truly within reach (by its vertices' and edges' distances) still comes out.
+    #[test]
+    fn flat_patches_are_skipped_and_near_pairs_are_not() {
+        use crate::collision::closest::{at, closest_on_triangle, segment_gap};
+        let mesh = crate::mesh::generate::grid([1.0, 1.0], [16, 12]).unwrap();
+        let (rest, triangles) = (mesh.positions().to_vec(), mesh.triangles().to_vec());
+        let mut tree = TriangleTree::new(&rest, &triangles);
+        // Folded over at x = 0, the halves 2 cm apart; reach 3 cm against altitudes of about 4 cm.
+        let x: Vec<DVec3> = rest.iter().map(|p| DVec3::new(p.x.abs(), p.y, 0.01 * p.x.signum())).collect();
+        let reach = 0.03;
+        tree.refit(|t| {
+            let c = triangles[t].map(|i| x[i]);
+            let (lo, hi) =
+                c.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+            let normal = (c[1] - c[0]).cross(c[2] - c[0]).normalize();
+            Leaf { lo: lo - 0.5 * reach, hi: hi + 0.5 * reach, normal, reach }
+        });
+        let mut found = std::collections::HashSet::new();
+        tree.overlapping_pairs(|a, b| {
+            found.insert([a.min(b), a.max(b)]);
+        });
+        let distance = |a: usize, b: usize| {
+            let (ta, tb) = (triangles[a].map(|i| x[i]), triangles[b].map(|i| x[i]));
+            let vt = |p: DVec3, t: [DVec3; 3]| (p - at(t, closest_on_triangle(p, t).0)).length();
+            let mut d = f64::INFINITY;
+            for k in 0..3 {
+                d = d.min(vt(ta[k], tb)).min(vt(tb[k], ta));
+                for j in 0..3 {
+                    d = d.min(segment_gap([ta[k], ta[(k + 1) % 3]], [tb[j], tb[(j + 1) % 3]]).length());
+                }
+            }
+            d
+        };
+        let mut overlapping = 0;
+        for a in 0..triangles.len() {
+            for b in a + 1..triangles.len() {
+                if triangles[a].iter().any(|v| triangles[b].contains(v)) {
+                    continue;
+                }
+                overlapping += 1;
+                if distance(a, b) <= reach {
+                    assert!(found.contains(&[a as u32, b as u32]), "triangles {a} and {b} are within reach");
+                }
+            }
+        }
+        assert!(found.len() * 4 < overlapping, "flat patches skipped: {} pairs of {overlapping}", found.len());
+    }
+}
