@@ -223,8 +223,8 @@ mod tests {
         let rest = mesh.positions().to_vec();
         let triangles = mesh.triangles().to_vec();
         let mut tree = TriangleTree::new(&rest, &triangles);
-        // Fold the sheet over itself, so that far-apart triangles overlap, and grow boxes a little.
-        let x: Vec<DVec3> = rest.iter().map(|p| DVec3::new(p.x.abs(), p.y, 0.05 * p.x.signum())).collect();
+        // The grid lies in the xz-plane. Fold the sheet over itself, so that far-apart triangles overlap, and grow boxes a little.
+        let x: Vec<DVec3> = rest.iter().map(|p| DVec3::new(p.x.abs(), p.z, 0.01 * p.x.signum())).collect();
         let bounds = |t: usize| {
             let (lo, hi) = triangles[t]
                 .iter()
@@ -268,7 +268,7 @@ mod tests {
         let (rest, triangles) = (mesh.positions().to_vec(), mesh.triangles().to_vec());
         let mut tree = TriangleTree::new(&rest, &triangles);
         // Folded over at x = 0, the halves 2 cm apart; reach 3 cm against altitudes of about 4 cm.
-        let x: Vec<DVec3> = rest.iter().map(|p| DVec3::new(p.x.abs(), p.y, 0.01 * p.x.signum())).collect();
+        let x: Vec<DVec3> = rest.iter().map(|p| DVec3::new(p.x.abs(), p.z, 0.01 * p.x.signum())).collect();
         let reach = 0.03;
         tree.refit(|t| {
             let c = triangles[t].map(|i| x[i]);
