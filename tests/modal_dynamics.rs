@@ -11,8 +11,8 @@ use shellwarp::energy::ShellStiffness;
 use shellwarp::scene::{self, Setup};
 use shellwarp::solver::modal::cache::Cache;
 use shellwarp::solver::modal::compute::{ModalProblem, analyse};
-use shellwarp::solver::modal::dynamics::{ModalDynamics, ModalParams};
-use shellwarp::solver::modal::method::ModalSolver;
+use shellwarp::solver::modal::dynamics::{ModalDynamics, ModalParams, Shape};
+use shellwarp::solver::modal::method::{ModalSolver, Variant};
 use shellwarp::solver::{Drag, DragKind, DragSet, Solver};
 
 /// An empty cache directory of this test's own.
@@ -96,7 +96,8 @@ fn twist(setup: &Setup, tip: usize, degrees: f64, warp: bool) -> Twist {
     let rows = setup.mesh.vertex_count() / per_row;
     let width = (setup.mesh.positions()[per_row - 1] - setup.mesh.positions()[0]).length();
     let cache = fresh_cache(&format!("twist-{degrees}-{warp}"));
-    let mut s = ModalSolver::with_cache(setup, warp, cache).unwrap();
+    let variant = if warp { Variant::Mwts } else { Variant::Lma };
+    let mut s = ModalSolver::with_cache(setup, variant, cache).unwrap();
     let target = |step: usize| DVec3::X * degrees.to_radians() * ((step + 1).min(RAMP) as f64 / RAMP as f64);
     let id = s.drags_mut().add(Drag { vertex: tip, kind: DragKind::Orientation(target(0)) }).unwrap();
     let mut worst = Twist { width: 0.0, row_step: 0.0, time_step: 0.0, end: 0.0 };
@@ -137,7 +138,7 @@ fn cantilever_dynamics(modes: usize, overrides: &[&str]) -> (ModalDynamics, Vec<
         keep_rigid: false,
     };
     let basis = analyse(&p, &|_| {}).unwrap().basis;
-    let dynamics = ModalDynamics::new(basis, setup.mesh.positions().to_vec(), Vec::new(), true);
+    let dynamics = ModalDynamics::new(basis, setup.mesh.positions().to_vec(), Vec::new(), Shape::Warp);
     (dynamics, masses, setup)
 }
 
@@ -236,7 +237,7 @@ fn unit(m: usize, j: usize) -> Vec<f64> {
 #[test]
 fn changing_the_mode_count_recomputes_in_the_background_and_carries_the_state_over() {
     let setup = scene::load("cantilever", &["solver.modes=6".into()]).unwrap();
-    let mut s = ModalSolver::with_cache(&setup, true, fresh_cache("mode-count")).unwrap();
+    let mut s = ModalSolver::with_cache(&setup, Variant::Mwts, fresh_cache("mode-count")).unwrap();
     assert_eq!(s.analysis().basis.modes(), 6);
     for _ in 0..20 {
         s.step().unwrap();
@@ -278,7 +279,7 @@ fn changing_the_mode_count_recomputes_in_the_background_and_carries_the_state_ov
 fn an_unreachable_drag_stays_calm_under_the_default_damping() {
     // Pulling the tip sideways and toward the clamp asks the bending modes for what they cannot do.
     let setup = scene::load("cantilever", &[]).unwrap();
-    let mut s = ModalSolver::with_cache(&setup, true, fresh_cache("unreachable")).unwrap();
+    let mut s = ModalSolver::with_cache(&setup, Variant::Mwts, fresh_cache("unreachable")).unwrap();
     let tip = 204;
     let target = DVec3::new(0.35, 0.2, 0.15);
     s.drags_mut().add(Drag { vertex: tip, kind: DragKind::Position(target) }).unwrap();

@@ -18,6 +18,6 @@ pub mod ordering;
 pub mod padded;
 
 pub use assembly::BlockAssembler;
-pub use cholesky::SparseCholesky;
+pub use cholesky::{PreparedSolve, SparseCholesky};
 pub use dofs::DofMap;
 pub use error::LinalgError;

@@ -1,4 +1,5 @@
-//! One fixed step of linear modal analysis (LMA) or modal warping (MWTS), with drag constraints.
+//! One fixed step of linear modal analysis (LMA), modal warping (MWTS) or its rotation-strain
+//! reconstruction (MWTS-RS), with drag constraints.
 //!
 //! Each mode is a damped oscillator `q̈ + (α + βλ) q̇ + λ q = g` advanced by implicit Euler,
 //! `v⁺ = (v + h(g − λq)) / (1 + hc + h²λ)`, `q⁺ = q + h v⁺`, unconditionally stable at 1/30 s.
@@ -6,13 +7,17 @@
 //! - LMA: `g = Φᵀ f`, `u_i = Φ_i q`.
 //! - MWTS: `g = Φᵀ R̃ᵀ f` with `R_i = exp([Ψ_i q]×)`, and `u_i = (∫₀¹ exp(s[w_i]×) ds) Φ_i q`,
 //!   the path-independent closed form: `q = 0` is exactly the rest shape, whatever happened before.
+//! - MWTS-RS: `x(q)` reconstructed from the triangles' rotations and strains and `g = J(q)ᵀ f`
+//!   ([`super::rotation_strain`]); `g` is taken at the start of the step, as for MWTS.
 //!
 //! Drag constraints act on the reduced system. With `D = diag(h² / (1 + hc + h²λ))` the step's
 //! response to a modal force, a constraint force `Jᵀμ` moves `q⁺ = q̂ + D Jᵀ μ`. Position
 //! constraints `X_i + u_i(q) = p*` are linearised about the current rotations
-//! (`J = B(w_i) Φ_i`, with `B` the warp operator, or `Φ_i` for LMA); orientation constraints
-//! `Ψ_i q = w*` are linear. The multipliers solve the damped least-squares system
-//! `(J D Jᵀ + ε I) μ = t − J q̂` with `ε = damping · trace(J D Jᵀ) / rows` — equivalently, each drag
+//! (`J = B(w_i) Φ_i`, with `B` the warp operator, or `Φ_i` for LMA; for MWTS-RS about the current
+//! `q`, `u_i(q + δ) ≈ u_i(q) + J_i(q) δ` with the reconstruction's exact Jacobian rows); orientation
+//! constraints `Ψ_i q = w*` are linear. Writing each linearised constraint as `o + J q = t` (the
+//! offset `o = u_i(q) − J_i q` is zero except for MWTS-RS), the multipliers solve the damped
+//! least-squares system `(J D Jᵀ + ε I) μ = t − o − J q̂` with `ε = damping · trace(J D Jᵀ) / rows` — equivalently, each drag
 //! is a stiff implicit spring of compliance `ε`. With the default `damping = 1e-2` a reachable target
 //! is met to about 1%, and an unreachable one (a drag that over-determines the few modes) settles at
 //! the closest compromise instead of thrashing: re-linearising `B` every step with a hard constraint
@@ -23,8 +28,9 @@ use nalgebra::{DMatrix, DVector};
 
 use super::basis::ModalBasis;
 use super::kernel::{ChunkedVectors, VertexPass};
+use super::rotation_strain::RotationStrain;
 use super::warp::warp_operator;
-use crate::solver::{DragKind, DragSet};
+use crate::solver::{Drag, DragKind, DragSet};
 
 /// Time-stepping parameters of the modal oscillators.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -39,8 +45,19 @@ pub struct ModalParams {
     pub constraint_damping: f64,
 }
 
+/// How the modal coordinates become positions, and the external forces a modal force.
+#[derive(Debug)]
+pub enum Shape {
+    /// LMA: `x = X + Φq`, `g = Φᵀ f`.
+    Linear,
+    /// MWTS: the closed-form warp of each vertex, `g = Φᵀ R̃ᵀ f`.
+    Warp,
+    /// MWTS-RS: the global reconstruction from triangle rotations and strains, `g = J(q)ᵀ f`.
+    RotationStrain(Box<RotationStrain>),
+}
+
 /// The state of a modal simulation and the per-vertex data one step needs.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct ModalDynamics {
     /// The basis.
     pub basis: ModalBasis,
@@ -48,8 +65,8 @@ pub struct ModalDynamics {
     pub q: Vec<f64>,
     /// Modal velocities.
     pub v: Vec<f64>,
-    /// Whether to warp (MWTS) or not (LMA).
-    pub warp: bool,
+    /// LMA, MWTS or MWTS-RS.
+    pub shape: Shape,
     rest: Vec<DVec3>,
     /// Rest positions for the per-vertex pass.
     rest_chunks: ChunkedVectors,
@@ -62,21 +79,22 @@ pub struct ModalDynamics {
 }
 
 impl ModalDynamics {
-    /// Start at rest, under per-vertex external `forces` (missing trailing vertices get none).
-    pub fn new(basis: ModalBasis, rest: Vec<DVec3>, forces: Vec<DVec3>, warp: bool) -> Self {
+    /// Start at rest, under per-vertex external `forces` (missing trailing vertices get none). A
+    /// [`Shape::RotationStrain`] must have been built for `basis`.
+    pub fn new(basis: ModalBasis, rest: Vec<DVec3>, forces: Vec<DVec3>, shape: Shape) -> Self {
         let m = basis.modes();
         let mut dynamics = Self {
             basis,
             q: vec![0.0; m],
             v: vec![0.0; m],
-            warp,
+            shape,
             positions: rest.clone(),
             rest_chunks: ChunkedVectors::new(&rest, rest.len()),
-            forces: ChunkedVectors::new(&forces, rest.len()),
+            forces: ChunkedVectors::new(&[], rest.len()),
             rest,
             force: vec![0.0; m],
         };
-        dynamics.update_positions();
+        dynamics.set_forces(forces);
         dynamics
     }
 
@@ -88,6 +106,9 @@ impl ModalDynamics {
     /// Replace the external forces (after a gravity or density change; missing vertices get none).
     pub fn set_forces(&mut self, forces: Vec<DVec3>) {
         self.forces = ChunkedVectors::new(&forces, self.rest.len());
+        if let Shape::RotationStrain(rs) = &mut self.shape {
+            rs.set_forces(&forces);
+        }
         self.update_positions();
     }
 
@@ -100,6 +121,9 @@ impl ModalDynamics {
         self.q = basis.project(masses, &u);
         self.v = basis.project(masses, &du);
         self.force = vec![0.0; basis.modes()];
+        if let Shape::RotationStrain(rs) = &mut self.shape {
+            rs.set_basis(&basis);
+        }
         self.basis = basis;
         self.update_positions();
     }
@@ -144,33 +168,24 @@ impl ModalDynamics {
     }
 
     /// `D Jᵀ μ` for the damped least-squares multipliers of the drag constraints.
-    fn constraint_correction(&self, q_hat: &[f64], d: &[f64], drags: &DragSet, damping: f64) -> Vec<f64> {
+    fn constraint_correction(&mut self, q_hat: &[f64], d: &[f64], drags: &DragSet, damping: f64) -> Vec<f64> {
         let m = self.basis.modes();
         let rows = 3 * drags.len();
         let mut jac = DMatrix::<f64>::zeros(rows, m);
         let mut rhs = DVector::<f64>::zeros(rows);
+        if let Shape::RotationStrain(rs) = &mut self.shape {
+            let dragged =
+                |v: usize| drags.iter().any(|(_, d)| d.vertex == v && matches!(d.kind, DragKind::Position(_)));
+            rs.keep_drags(dragged);
+        }
         for (k, (_, drag)) in drags.iter().enumerate() {
-            let i = drag.vertex;
-            let block = |entry: &dyn Fn(usize, usize) -> f64, map: DMat3, jac: &mut DMatrix<f64>| {
-                for a in 0..3 {
-                    for j in 0..m {
-                        jac[(3 * k + a, j)] = (0..3).map(|b| map.col(b)[a] * entry(b, j)).sum();
-                    }
-                }
-            };
-            let phi = |b: usize, j: usize| self.basis.phi(i, b, j);
-            let psi = |b: usize, j: usize| self.basis.psi(i, b, j);
-            let (target, map, data): (DVec3, DMat3, &dyn Fn(usize, usize) -> f64) = match drag.kind {
-                DragKind::Position(p) => {
-                    let map = if self.warp { warp_operator(self.basis.rotation(i, &self.q)) } else { DMat3::IDENTITY };
-                    (p - self.rest[i], map, &phi)
-                }
-                DragKind::Orientation(w) => (w, DMat3::IDENTITY, &psi),
-            };
-            block(data, map, &mut jac);
+            let (block, target, offset) = self.linearisation(drag);
             for a in 0..3 {
+                for j in 0..m {
+                    jac[(3 * k + a, j)] = block[a * m + j];
+                }
                 let jq: f64 = (0..m).map(|j| jac[(3 * k + a, j)] * q_hat[j]).sum();
-                rhs[3 * k + a] = target[a] - jq;
+                rhs[3 * k + a] = target[a] - offset[a] - jq;
             }
         }
         let dmat = DMatrix::from_diagonal(&DVector::from_column_slice(d));
@@ -186,19 +201,46 @@ impl ModalDynamics {
         }
     }
 
+    /// A drag's constraint linearised at the current `q`, `o + J q = t`: the rows of `J` (x, y, z, each
+    /// `m` long), the target `t` and the offset `o`.
+    fn linearisation(&mut self, drag: &Drag) -> (Vec<f64>, DVec3, DVec3) {
+        let (i, m) = (drag.vertex, self.basis.modes());
+        let rows_of = |map: DMat3, entry: &dyn Fn(usize, usize) -> f64| -> Vec<f64> {
+            (0..3 * m).map(|r| (0..3).map(|b| map.col(b)[r / m] * entry(b, r % m)).sum()).collect()
+        };
+        match (drag.kind, &mut self.shape) {
+            (DragKind::Orientation(w), _) => {
+                (rows_of(DMat3::IDENTITY, &|b, j| self.basis.psi(i, b, j)), w, DVec3::ZERO)
+            }
+            (DragKind::Position(p), Shape::RotationStrain(rs)) => {
+                let rows = rs.position_rows(i, &self.q, &mut self.positions, &mut self.force);
+                let jq = DVec3::from_array([0, 1, 2].map(|a| (0..m).map(|j| rows[a * m + j] * self.q[j]).sum::<f64>()));
+                (rows, p - self.rest[i], self.positions[i] - self.rest[i] - jq)
+            }
+            (DragKind::Position(p), shape) => {
+                let warped = matches!(shape, Shape::Warp);
+                let map = if warped { warp_operator(self.basis.rotation(i, &self.q)) } else { DMat3::IDENTITY };
+                (rows_of(map, &|b, j| self.basis.phi(i, b, j)), p - self.rest[i], DVec3::ZERO)
+            }
+        }
+    }
+
     /// Recompute the positions from `q`, and with them the modal force at the new rotations, in one
     /// pass over the vertices ([`VertexPass`]): the whole per-vertex cost of a step.
     fn update_positions(&mut self) {
-        VertexPass {
-            basis: &self.basis,
-            q: &self.q,
-            rest: &self.rest_chunks,
-            forces: &self.forces,
-            warp: self.warp,
-            positions: &mut self.positions,
-            force: &mut self.force,
+        match &mut self.shape {
+            Shape::RotationStrain(rs) => rs.update(&self.q, &mut self.positions, &mut self.force),
+            shape => VertexPass {
+                basis: &self.basis,
+                q: &self.q,
+                rest: &self.rest_chunks,
+                forces: &self.forces,
+                warp: matches!(shape, Shape::Warp),
+                positions: &mut self.positions,
+                force: &mut self.force,
+            }
+            .run(),
         }
-        .run();
     }
 }
 
@@ -226,7 +268,7 @@ mod tests {
         shapes[1].iter_mut().for_each(|x| *x /= n1);
         let basis = ModalBasis::new(&mesh, vec![4.0, 30.0], &shapes);
         let forces = masses.iter().map(|m| DVec3::new(0.0, -9.81 * m, 0.0)).collect();
-        (ModalDynamics::new(basis, mesh.positions().to_vec(), forces, true), masses)
+        (ModalDynamics::new(basis, mesh.positions().to_vec(), forces, Shape::Warp), masses)
     }
 
     const P: ModalParams = ModalParams { step: 1.0 / 30.0, alpha: 0.5, beta: 0.0, constraint_damping: 1e-9 };
@@ -234,7 +276,7 @@ mod tests {
     #[test]
     fn lma_settles_at_the_static_modal_solution() {
         let (mut dynamics, _) = strip();
-        dynamics.warp = false;
+        dynamics.shape = Shape::Linear;
         let g = dynamics.force.clone();
         for _ in 0..2000 {
             dynamics.step(&P, &DragSet::default());
@@ -273,7 +315,7 @@ mod tests {
         dynamics.q = vec![std::f64::consts::FRAC_PI_2 / w_tip, 0.0];
         dynamics.update_positions();
         let warped = length(&dynamics);
-        dynamics.warp = false;
+        dynamics.shape = Shape::Linear;
         dynamics.update_positions();
         let linear = length(&dynamics);
         assert!((warped - 1.0).abs() < 0.6 * (linear - 1.0).abs(), "MWTS {warped} vs LMA {linear}");
@@ -282,7 +324,7 @@ mod tests {
     #[test]
     fn feasible_position_drag_is_met_and_infeasible_one_stays_finite() {
         let (mut dynamics, _) = strip();
-        dynamics.warp = false;
+        dynamics.shape = Shape::Linear;
         let rest = dynamics.positions().to_vec();
         let mut drags = DragSet::new(rest.len(), true);
         let target = rest[61] + DVec3::new(0.0, 0.2, 0.0);
