@@ -110,69 +110,6 @@ impl SparseCholesky {
     }
 }
 
-/// A successful factorisation ready for repeated solves: it owns the solve's scratch and a buffer of
-/// up to `columns` right-hand sides, so a solve allocates nothing and cannot fail (for per-step
-/// solves on a hot path).
-pub struct PreparedSolve {
-    chol: SparseCholesky,
-    scratch: MemBuffer,
-    rhs: Vec<f64>,
-    columns: usize,
-}
-
-impl std::fmt::Debug for PreparedSolve {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("PreparedSolve").field("dim", &self.dim()).field("columns", &self.columns).finish()
-    }
-}
-
-impl PreparedSolve {
-    /// Take a factorised `chol` for up to `columns` right-hand sides at a time. Fails if it has no
-    /// successful factorisation, if `columns` is zero, or if the scratch cannot be allocated.
-    pub fn new(chol: SparseCholesky, columns: usize) -> Result<Self, LinalgError> {
-        if !chol.factored {
-            return Err(LinalgError::NotPositiveDefinite("no successful factorisation to solve with".into()));
-        }
-        let n = chol.symbolic.nrows();
-        if columns == 0 {
-            return Err(LinalgError::BadRhs { len: 0, rows: n, columns });
-        }
-        let need = chol.symbolic.solve_in_place_scratch::<f64>(columns, Par::Seq);
-        let scratch = MemBuffer::try_new(need).map_err(|_| LinalgError::NotPositiveDefinite("out of memory".into()))?;
-        Ok(Self { chol, scratch, rhs: vec![0.0; n * columns], columns })
-    }
-
-    /// Unknowns per right-hand side.
-    pub fn dim(&self) -> usize {
-        self.chol.symbolic.nrows()
-    }
-
-    /// The right-hand sides, column after column (`dim × columns`); after [`PreparedSolve::solve`],
-    /// the solutions in their place.
-    pub fn rhs(&self) -> &[f64] {
-        &self.rhs
-    }
-
-    /// The right-hand sides, to fill before [`PreparedSolve::solve`].
-    pub fn rhs_mut(&mut self) -> &mut [f64] {
-        &mut self.rhs
-    }
-
-    /// Solve in place for the first `used` columns (all of them if `used` is larger).
-    pub fn solve(&mut self, used: usize) {
-        let (n, used) = (self.dim(), used.min(self.columns));
-        if n == 0 || used == 0 {
-            return;
-        }
-        LltRef::new(&self.chol.symbolic, &self.chol.values).solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(&mut self.rhs[..n * used], n, used),
-            Par::Seq,
-            MemStack::new(&mut self.scratch),
-        );
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -195,31 +132,5 @@ mod tests {
         a.add_diagonal(&[-10.0; 6]);
         assert!(chol.factor(a.matrix()).is_err());
         assert!(chol.solve(&mut b).is_err());
-        assert!(PreparedSolve::new(chol, 2).is_err(), "no factorisation to prepare");
-    }
-
-    #[test]
-    fn a_prepared_solve_matches_the_plain_one_for_some_or_all_columns() {
-        let dofs = DofMap::all(2);
-        let mut a = BlockAssembler::new(&dofs, [&[0usize, 1][..]]).unwrap();
-        let off = glam::DMat3::from_cols_array(&[0.5, 0.1, 0.0, 0.2, -0.3, 0.1, 0.0, 0.4, 0.2]);
-        a.begin();
-        a.add_element(0, &[glam::DMat3::IDENTITY * 4.0, off, glam::DMat3::IDENTITY * 5.0]).unwrap();
-        a.finish();
-        let mut chol = SparseCholesky::new(a.matrix()).unwrap();
-        chol.factor(a.matrix()).unwrap();
-        let b: Vec<f64> = (0..12).map(|i| (i as f64 * 0.7).sin()).collect();
-        let mut want = b.clone();
-        chol.solve_many(&mut want, 2).unwrap();
-        let mut prepared = PreparedSolve::new(chol, 2).unwrap();
-        assert_eq!(prepared.dim(), 6);
-        prepared.rhs_mut().copy_from_slice(&b);
-        prepared.solve(5);
-        assert_eq!(prepared.rhs(), &want[..]);
-        // One column: the second is left as it was.
-        prepared.rhs_mut().copy_from_slice(&b);
-        prepared.solve(1);
-        assert_eq!(&prepared.rhs()[..6], &want[..6]);
-        assert_eq!(&prepared.rhs()[6..], &b[6..]);
     }
 }

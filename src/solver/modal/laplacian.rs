@@ -4,8 +4,9 @@
 //! vertices (anchored ones stay at zero) gives the normal equations `L u = b`: `L` is the graph
 //! Laplacian of the mesh's edges weighted by the areas of the triangles they belong to (an interior
 //! edge counts twice), with the rows and columns of fixed vertices removed; it is the same for the
-//! three coordinates, so one scalar sparse Cholesky factor (nested-dissection order) serves all three
-//! right sides of a step. `b` is assembled by [`super::rs_pass`].
+//! three coordinates, so one scalar sparse Cholesky factor ([`VectorCholesky`]; the unknowns are
+//! numbered in its fill-reducing order) solves all three in one pass. `b` is assembled by
+//! [`super::rs_pass`].
 //!
 //! **Gauge.** A connected component without an anchor is fixed by `L` only up to a translation (the
 //! targets are world-frame vectors, so its orientation is fixed by them: there is no rotational
@@ -22,8 +23,8 @@
 
 use glam::DVec3;
 
-use crate::linalg::ordering::nested_dissection;
-use crate::linalg::{PreparedSolve, SparseCholesky};
+use crate::linalg::VectorCholesky;
+use crate::linalg::padded::Padded;
 use crate::mesh::TriMesh;
 use crate::solver::SolverError;
 
@@ -42,7 +43,7 @@ pub struct Gauge {
 /// The factorised area-weighted edge Laplacian over the free vertices.
 #[derive(Debug)]
 pub struct EdgeLaplacian {
-    solve: PreparedSolve,
+    factor: VectorCholesky,
     /// Per vertex: its unknown, or [`NONE`].
     unknown: Vec<u32>,
     /// Per vertex: its gauge, or [`NONE`].
@@ -81,41 +82,43 @@ impl EdgeLaplacian {
             anchored[vertices[0]] = true;
             gauges.push(Gauge { vertices, weights });
         }
-        let mut unknown = vec![NONE; n];
         let free: Vec<usize> = (0..n).filter(|&v| !anchored[v]).collect();
-        free.iter().enumerate().for_each(|(i, &v)| unknown[v] = i as u32);
         if free.is_empty() {
             return Err(numerical("no free vertex"));
         }
+        let mut slot = vec![NONE; n];
+        free.iter().enumerate().for_each(|(i, &v)| slot[v] = i as u32);
         let mut entries = Vec::new();
-        let mut adjacency = vec![Vec::new(); free.len()];
         for (t, area) in mesh.triangles().iter().zip(mesh.triangle_areas()) {
             for k in 0..3 {
-                let (i, j) = (unknown[t[k]], unknown[t[(k + 1) % 3]]);
+                let (i, j) = (slot[t[k]], slot[t[(k + 1) % 3]]);
                 for d in [i, j].into_iter().filter(|&d| d != NONE) {
                     entries.push(faer::sparse::Triplet::new(d as usize, d as usize, area));
                 }
                 if i != NONE && j != NONE {
-                    let (lo, hi) = (i.min(j) as usize, i.max(j) as usize);
-                    entries.push(faer::sparse::Triplet::new(lo, hi, -area));
-                    adjacency[lo].push(hi);
-                    adjacency[hi].push(lo);
+                    entries.push(faer::sparse::Triplet::new(i.min(j) as usize, i.max(j) as usize, -area));
                 }
             }
         }
         let matrix = faer::sparse::SparseColMat::<usize, f64>::try_new_from_triplets(free.len(), free.len(), &entries)
             .map_err(|e| numerical(format!("{e:?}")))?;
-        let points: Vec<DVec3> = free.iter().map(|&v| mesh.positions()[v]).collect();
-        let order = nested_dissection(&points, &adjacency);
-        let mut chol = SparseCholesky::with_order(matrix.as_ref(), &order).map_err(numerical)?;
-        chol.factor(matrix.as_ref()).map_err(numerical)?;
-        let solve = PreparedSolve::new(chol, 3).map_err(numerical)?;
-        Ok(Self { solve, unknown, gauge_of, weight, gauges })
+        let factor = VectorCholesky::new(matrix.as_ref()).map_err(numerical)?;
+        // Number the unknowns in the factor's order.
+        let mut unknown = vec![NONE; n];
+        for (k, &i) in factor.order().iter().enumerate() {
+            unknown[free[i]] = k as u32;
+        }
+        Ok(Self { factor, unknown, gauge_of, weight, gauges })
     }
 
     /// Number of unknowns (free vertices less the gauge vertices).
     pub fn dim(&self) -> usize {
-        self.solve.dim()
+        self.factor.dim()
+    }
+
+    /// Entries of the Cholesky factor.
+    pub fn factor_entries(&self) -> usize {
+        self.factor.factor_entries()
     }
 
     /// Per vertex: its unknown (row of `L`), or [`NONE`] for anchored and gauge vertices.
@@ -133,10 +136,9 @@ impl EdgeLaplacian {
         self.gauge_of.get(v).filter(|&&g| g != NONE).map(|&g| g as usize)
     }
 
-    /// The right side `b`, three columns (x, y, z) of [`EdgeLaplacian::dim`] values, to fill before
-    /// [`EdgeLaplacian::displacements`].
-    pub fn rhs_mut(&mut self) -> &mut [f64] {
-        self.solve.rhs_mut()
+    /// The right side `b`, one 3-vector per unknown, to fill before [`EdgeLaplacian::displacements`].
+    pub fn rhs_mut(&mut self) -> &mut [Padded] {
+        self.factor.rhs_mut()
     }
 
     /// Solve `L u = b` for the right side filled in [`EdgeLaplacian::rhs_mut`] and write every
@@ -155,12 +157,10 @@ impl EdgeLaplacian {
     /// such that `fᵀu = yᵀb + Σ_g F_gᵀ μ_g` (module documentation).
     pub fn adjoint(&mut self, f: &[DVec3]) -> (Vec<DVec3>, Vec<DVec3>) {
         let net: Vec<DVec3> = self.gauges.iter().map(|g| g.vertices.iter().map(|&v| f[v]).sum()).collect();
-        let n = self.dim();
-        let rhs = self.solve.rhs_mut();
+        let rhs = self.factor.rhs_mut();
         for (v, &k) in self.unknown.iter().enumerate().filter(|(_, k)| **k != NONE) {
             let shift = net.get(self.gauge_of[v] as usize).map_or(DVec3::ZERO, |fg| *fg * self.weight[v]);
-            let (fv, k) = (f[v] - shift, k as usize);
-            (rhs[k], rhs[n + k], rhs[2 * n + k]) = (fv.x, fv.y, fv.z);
+            rhs[k as usize] = (f[v] - shift).into();
         }
         let mut y = vec![DVec3::ZERO; f.len()];
         self.solve_into(&mut y);
@@ -169,11 +169,10 @@ impl EdgeLaplacian {
 
     /// Solve for the right side in the buffer and write the solution per vertex (zero elsewhere).
     fn solve_into(&mut self, u: &mut [DVec3]) {
-        self.solve.solve(3);
-        let (n, x) = (self.dim(), self.solve.rhs());
+        self.factor.solve();
+        let x = self.factor.solution();
         for (ui, &k) in u.iter_mut().zip(&self.unknown) {
-            let k = k as usize;
-            *ui = if k < n { DVec3::new(x[k], x[n + k], x[2 * n + k]) } else { DVec3::ZERO };
+            *ui = x.get(k as usize).map_or(DVec3::ZERO, |&x| x.into());
         }
     }
 }
@@ -185,17 +184,16 @@ mod tests {
 
     /// Fill `b` for targets `δg_e = v_j − v_i` of a displacement field `v` (as the pass does).
     fn compatible_rhs(mesh: &TriMesh, lap: &mut EdgeLaplacian, v: &[DVec3]) {
-        let (unknown, n) = (lap.unknowns().to_vec(), lap.dim());
+        let unknown = lap.unknowns().to_vec();
         let rhs = lap.rhs_mut();
-        rhs.fill(0.0);
+        rhs.fill(Padded::ZERO);
         for (t, a) in mesh.triangles().iter().zip(mesh.triangle_areas()) {
             for k in 0..3 {
                 let (i, j) = (t[k], t[(k + 1) % 3]);
-                let d = (v[j] - v[i]) * a;
+                let d: Padded = ((v[j] - v[i]) * a).into();
                 for (vertex, sign) in [(j, 1.0), (i, -1.0)] {
-                    let u = unknown[vertex] as usize;
-                    if u < n {
-                        (0..3).for_each(|c| rhs[c * n + u] += sign * d[c]);
+                    if let Some(r) = rhs.get_mut(unknown[vertex] as usize) {
+                        *r += d * sign;
                     }
                 }
             }
@@ -248,20 +246,17 @@ mod tests {
             let mut lap = EdgeLaplacian::new(&mesh, &anchors).unwrap();
             let n = mesh.vertex_count();
             let f: Vec<DVec3> = (0..n).map(|i| field(DVec3::splat(0.37 * i as f64))).collect();
-            let b: Vec<f64> = (0..3 * lap.dim()).map(|i| (1.3 * i as f64).sin()).collect();
+            let b: Vec<DVec3> =
+                (0..lap.dim()).map(|i| DVec3::new((1.3 * i as f64).sin(), 0.5, -0.1 * i as f64)).collect();
             let mu: Vec<DVec3> = lap.gauges().iter().map(|_| DVec3::new(0.1, -0.2, 0.3)).collect();
-            lap.rhs_mut().copy_from_slice(&b);
+            lap.rhs_mut().iter_mut().zip(&b).for_each(|(r, b)| *r = (*b).into());
             let mut u = vec![DVec3::ZERO; n];
             lap.displacements(&mu, &mut u);
             let work: f64 = f.iter().zip(&u).map(|(a, b)| a.dot(*b)).sum();
             let (y, net) = lap.adjoint(&f);
-            let dim = lap.dim();
             let yb: f64 = (0..n)
                 .filter(|&v| lap.unknowns()[v] != NONE)
-                .map(|v| {
-                    let k = lap.unknowns()[v] as usize;
-                    y[v].dot(DVec3::new(b[k], b[dim + k], b[2 * dim + k]))
-                })
+                .map(|v| y[v].dot(b[lap.unknowns()[v] as usize]))
                 .sum::<f64>()
                 + net.iter().zip(&mu).map(|(a, b)| a.dot(*b)).sum::<f64>();
             eprintln!("fᵀu = {work:.15e}, yᵀb + Fᵀμ = {yb:.15e}");

@@ -46,7 +46,7 @@ pub struct RotationStrain {
     rest: Vec<DVec3>,
     /// Per gauge, per mode: the centroid of the mode's displacement over the component.
     centroid_modes: Vec<Vec<DVec3>>,
-    /// Per triangle of the pass: the loads' moments.
+    /// Per chunk of triangles of the pass: the loads' moments.
     loads: Vec<Moments>,
     /// Per gauge: the net load on the component.
     net: Vec<DVec3>,
@@ -64,7 +64,7 @@ impl RotationStrain {
         let rest = mesh.positions().to_vec();
         let pass = TrianglePass::new(&rest, mesh.triangles(), laplacian.unknowns(), basis);
         let mut rs = Self {
-            loads: vec![[DVec3::ZERO; 2]; pass.len()],
+            loads: Vec::new(),
             net: vec![DVec3::ZERO; laplacian.gauges().len()],
             u: vec![DVec3::ZERO; rest.len()],
             centroid_modes: Vec::new(),
@@ -74,6 +74,7 @@ impl RotationStrain {
             rest,
         };
         rs.set_basis(basis);
+        rs.set_forces(&[]);
         Ok(rs)
     }
 
