@@ -8,10 +8,13 @@
 //! - MWTS: `g = Φᵀ R̃ᵀ f` with `R_i = exp([Ψ_i q]×)`, and `u_i = (∫₀¹ exp(s[w_i]×) ds) Φ_i q`,
 //!   the path-independent closed form: `q = 0` is exactly the rest shape, whatever happened before.
 //! - MWTS-RS: `x(q)` reconstructed from the triangles' rotations and strains and `g = J(q)ᵀ f`
-//!   ([`super::rotation_strain`]); `g` is taken at the start of the step, as for MWTS.
+//!   ([`super::rotation_strain`]), linearly implicit: `g(q⁺) ≈ g + H (q⁺ − q)` with the load
+//!   stiffness `H = ∂g/∂q`, so the step solves `S v⁺ = v + h(g − λq)`, `S = I + hC + h²(Λ − H)`
+//!   (a small dense SPD system; if `S` is not positive definite the step falls back to `H = 0`).
 //!
 //! Drag constraints act on the reduced system. With `D = diag(h² / (1 + hc + h²λ))` the step's
-//! response to a modal force, a constraint force `Jᵀμ` moves `q⁺ = q̂ + D Jᵀ μ`. Position
+//! response to a modal force (`h² S⁻¹` for MWTS-RS), a constraint force `Jᵀμ` moves
+//! `q⁺ = q̂ + D Jᵀ μ`. Position
 //! constraints `X_i + u_i(q) = p*` are linearised about the current rotations
 //! (`J = B(w_i) Φ_i`, with `B` the warp operator, or `Φ_i` for LMA; for MWTS-RS about the current
 //! `q`, `u_i(q + δ) ≈ u_i(q) + J_i(q) δ` with the reconstruction's exact Jacobian rows); orientation
@@ -142,19 +145,25 @@ impl ModalDynamics {
     /// Advance one step under the drag constraints.
     pub fn step(&mut self, p: &ModalParams, drags: &DragSet) {
         let h = p.step;
-        let g = &self.force;
         let m = self.basis.modes();
-        let mut d = vec![0.0; m];
-        let mut q_hat = vec![0.0; m];
-        let mut v_hat = vec![0.0; m];
-        for j in 0..m {
-            let l = self.basis.eigenvalues[j];
-            let c = p.alpha + p.beta * l;
-            let den = 1.0 + h * c + h * h * l;
-            v_hat[j] = (self.v[j] + h * (g[j] - l * self.q[j])) / den;
-            q_hat[j] = self.q[j] + h * v_hat[j];
-            d[j] = h * h / den;
-        }
+        let implicit: Vec<f64> =
+            (self.basis.eigenvalues.iter()).map(|&l| 1.0 + h * (p.alpha + p.beta * l) + h * h * l).collect();
+        let rhs: Vec<f64> =
+            (0..m).map(|j| self.v[j] + h * (self.force[j] - self.basis.eigenvalues[j] * self.q[j])).collect();
+        // v̂ = S⁻¹ rhs, and the step's response D = h² S⁻¹ to a modal force.
+        let stiffness = match &self.shape {
+            Shape::RotationStrain(rs) => rs.stiffness(),
+            _ => None,
+        };
+        let diagonal = DMatrix::from_diagonal(&DVector::from_column_slice(&implicit));
+        let (mut v_hat, d): (Vec<f64>, _) = match stiffness.and_then(|hs| (diagonal - hs * (h * h)).cholesky()) {
+            Some(s) => (s.solve(&DVector::from_column_slice(&rhs)).iter().copied().collect(), s.inverse() * (h * h)),
+            None => (
+                rhs.iter().zip(&implicit).map(|(r, d)| r / d).collect(),
+                DMatrix::from_diagonal(&DVector::from_iterator(m, implicit.iter().map(|d| h * h / d))),
+            ),
+        };
+        let mut q_hat: Vec<f64> = self.q.iter().zip(&v_hat).map(|(q, v)| q + h * v).collect();
         if !drags.is_empty() {
             let correction = self.constraint_correction(&q_hat, &d, drags, p.constraint_damping);
             for j in 0..m {
@@ -162,13 +171,18 @@ impl ModalDynamics {
                 v_hat[j] += correction[j] / h;
             }
         }
-        self.q = q_hat;
+        let (q_old, g_old) = (std::mem::replace(&mut self.q, q_hat), self.force.clone());
         self.v = v_hat;
         self.update_positions();
+        if let Shape::RotationStrain(rs) = &mut self.shape {
+            let dq: Vec<f64> = self.q.iter().zip(&q_old).map(|(a, b)| a - b).collect();
+            let dg: Vec<f64> = self.force.iter().zip(&g_old).map(|(a, b)| a - b).collect();
+            rs.after_step(&dq, &dg, &implicit, h);
+        }
     }
 
     /// `D Jᵀ μ` for the damped least-squares multipliers of the drag constraints.
-    fn constraint_correction(&mut self, q_hat: &[f64], d: &[f64], drags: &DragSet, damping: f64) -> Vec<f64> {
+    fn constraint_correction(&mut self, q_hat: &[f64], d: &DMatrix<f64>, drags: &DragSet, damping: f64) -> Vec<f64> {
         let m = self.basis.modes();
         let rows = 3 * drags.len();
         let mut jac = DMatrix::<f64>::zeros(rows, m);
@@ -188,8 +202,7 @@ impl ModalDynamics {
                 rhs[3 * k + a] = target[a] - offset[a] - jq;
             }
         }
-        let dmat = DMatrix::from_diagonal(&DVector::from_column_slice(d));
-        let jd = &jac * &dmat;
+        let jd = &jac * d;
         let mut s = &jd * jac.transpose();
         let eps = damping * s.trace().max(f64::MIN_POSITIVE) / rows as f64;
         for r in 0..rows {

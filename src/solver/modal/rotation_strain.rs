@@ -20,10 +20,18 @@
 //! loads) `y` and the triangles' load moments are computed once per load change
 //! ([`RotationStrain::set_forces`]), and a step is one per-triangle pass and one solve.
 //!
-//! **Dynamics** (in [`super::dynamics`]): `q̈ + D q̇ + Λ q = g(q)`, each mode by implicit Euler with
-//! `g` taken at the start of the step (semi-implicit, as for `mwts`). The configuration-dependent
-//! mass `J(q)ᵀ M J(q)` of Pan et al. is left out: the mass stays `Φᵀ M Φ = I` (exact at rest, and
-//! static equilibria do not depend on it).
+//! **Dynamics** (in [`super::dynamics`]): `q̈ + D q̇ + Λ q = g(q)` by linearly implicit Euler — one
+//! Newton step of backward Euler, with the load's stiffness `H = ∂g/∂q` (symmetric: `g` is the
+//! gradient of `fᵀx`) in the step matrix `I + hD + h²(Λ − H)`. Taking `g` at the start of the step
+//! instead, as `mwts` does, is unstable under large loads: on the V-beam at 1200 m/s² `H` has an
+//! eigenvalue of −8.8e4 1/s² against `λ₁ = 1.5e3`, `h²|H| ≈ 97`, and the step flips between two shapes
+//! (period two) instead of settling. `H` is computed by forward differences of `g` (one force-only
+//! pass per mode, no solve; a step of 1e-6 rad of the largest triangle rotation per mode) and kept
+//! while it predicts the force: after each step the part of `Δg` it missed, `r = Δg − H Δq`, acts as
+//! an explicit stiffness, and `H` is recomputed when `h² |r_j| / (1 + hD_j + h²λ_j)` exceeds a quarter
+//! of `|Δq|` (an explicit part that small cannot flip the step; see [`RotationStrain::after_step`]).
+//! The configuration-dependent mass `J(q)ᵀ M J(q)` of Pan et al. is left out: the mass stays
+//! `Φᵀ M Φ = I` (exact at rest, and static equilibria do not depend on it).
 //!
 //! **Drags.** A position drag on vertex `i` is linearised with the rows `J_i(q)` of the exact
 //! Jacobian (the adjoint with `f = e_i ⊗ e_a`; the scalar field `z = L⁻¹ e_i` is kept while the drag
@@ -31,6 +39,7 @@
 //! rotation vectors `ω_t` of the vertex's triangles — exactly `Ψ_i q`, so its rows are `mwts`'s.
 
 use glam::DVec3;
+use nalgebra::DMatrix;
 
 use super::basis::ModalBasis;
 use super::laplacian::{EdgeLaplacian, Gauge};
@@ -52,6 +61,11 @@ pub struct RotationStrain {
     net: Vec<DVec3>,
     /// The position drags' Jacobian rows, at the `q` of the last update.
     drags: Vec<DragRows>,
+    /// The load stiffness `H = ∂g/∂q` (module documentation), or `None` until the next update
+    /// computes it.
+    stiffness: Option<DMatrix<f64>>,
+    /// Per mode: the difference step of `H`.
+    steps: Vec<f64>,
     /// Scratch: the displacements.
     u: Vec<DVec3>,
 }
@@ -69,6 +83,8 @@ impl RotationStrain {
             u: vec![DVec3::ZERO; rest.len()],
             centroid_modes: Vec::new(),
             drags: Vec::new(),
+            stiffness: None,
+            steps: Vec::new(),
             laplacian,
             pass,
             rest,
@@ -87,6 +103,8 @@ impl RotationStrain {
         self.centroid_modes =
             self.laplacian.gauges().iter().map(|g| (0..basis.modes()).map(|j| centroid(g, j)).collect()).collect();
         self.drags.iter_mut().for_each(|d| d.rows = vec![0.0; 3 * basis.modes()]);
+        self.steps = self.pass.rotation_scales().iter().map(|&s| 1e-6 / s.max(f64::MIN_POSITIVE)).collect();
+        self.stiffness = None;
     }
 
     /// Set the per-vertex external forces (missing trailing vertices get none), constant until the
@@ -97,20 +115,69 @@ impl RotationStrain {
         let (y, net) = self.laplacian.adjoint(&f);
         self.loads = self.pass.moments(&y);
         self.net = net;
+        self.stiffness = None;
     }
 
-    /// Positions `x(q)`, the generalised force `g(q) = J(q)ᵀ f` and the position drags' Jacobian rows.
+    /// Positions `x(q)`, the generalised force `g(q) = J(q)ᵀ f` and the position drags' Jacobian rows;
+    /// the load stiffness too if it is due.
     pub fn update(&mut self, q: &[f64], positions: &mut [DVec3], force: &mut [f64]) {
-        self.pass.run(q, &self.loads, self.laplacian.rhs_mut(), force, &mut self.drags);
+        self.pass.run(q, &self.loads, Some(self.laplacian.rhs_mut()), force, &mut self.drags);
+        self.add_centroid_forces(force);
         let centroids: Vec<DVec3> =
             (self.centroid_modes.iter()).map(|modes| modes.iter().zip(q).map(|(c, qj)| *c * *qj).sum()).collect();
         self.laplacian.displacements(&centroids, &mut self.u);
         for ((x, rest), u) in positions.iter_mut().zip(&self.rest).zip(&self.u) {
             *x = *rest + *u;
         }
+        if self.stiffness.is_none() {
+            self.stiffness = Some(self.load_stiffness(q, force));
+        }
+    }
+
+    /// The load stiffness `H = ∂g/∂q` in use (module documentation).
+    pub fn stiffness(&self) -> Option<&DMatrix<f64>> {
+        self.stiffness.as_ref()
+    }
+
+    /// After a step from `q` to `q + dq` that changed the force by `dg`, with `implicit[j] =
+    /// 1 + hD_j + h²λ_j` the diagonal of the step matrix and `h` the step: drop `H` (so that the next
+    /// update recomputes it) if the part of `dg` it did not predict is large enough to act as a
+    /// destabilising explicit stiffness (module documentation).
+    pub fn after_step(&mut self, dq: &[f64], dg: &[f64], implicit: &[f64], h: f64) {
+        let Some(stiffness) = &self.stiffness else { return };
+        let predicted = stiffness * nalgebra::DVector::from_column_slice(dq);
+        let missed: f64 = (dg.iter().zip(predicted.iter()).zip(implicit))
+            .map(|((g, p), d)| (h * h * (g - p) / d).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let moved = dq.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if missed > 0.25 * moved || !missed.is_finite() {
+            self.stiffness = None;
+        }
+    }
+
+    /// `g += Σ_g C_gᵀ F_g`: the work of the net load on a free component's centroid.
+    fn add_centroid_forces(&self, force: &mut [f64]) {
         for (modes, net) in self.centroid_modes.iter().zip(&self.net) {
             force.iter_mut().zip(modes).for_each(|(g, c)| *g += c.dot(*net));
         }
+    }
+
+    /// `H = ∂g/∂q` at `q` (where the force is `g`) by forward differences, symmetrised.
+    fn load_stiffness(&self, q: &[f64], g: &[f64]) -> DMatrix<f64> {
+        let m = q.len();
+        let mut h = DMatrix::zeros(m, m);
+        let (mut shifted, mut gj) = (q.to_vec(), vec![0.0; m]);
+        for (j, step) in self.steps.iter().enumerate() {
+            shifted[j] = q[j] + step;
+            self.pass.run(&shifted, &self.loads, None, &mut gj, &mut []);
+            self.add_centroid_forces(&mut gj);
+            shifted[j] = q[j];
+            for i in 0..m {
+                h[(i, j)] = (gj[i] - g[i]) / step;
+            }
+        }
+        (&h + h.transpose()) * 0.5
     }
 
     /// The Jacobian `∂x_vertex/∂q` at the `q` of the last update (3 rows, x, y, z, of `m`). A vertex

@@ -176,10 +176,30 @@ impl TrianglePass {
         DragRows { vertex, moments: self.weighted(|v| [z[v]]), rows: vec![0.0; 3 * self.modes] }
     }
 
-    /// One pass at `q`: the right side `rhs` of the reconstruction (one 3-vector per unknown), the
-    /// generalised force `force` of the loads with moments `loads` (without the gauges' centroid
-    /// terms), and the Jacobian rows of every drag in `drags`.
-    pub fn run(&self, q: &[f64], loads: &[Moments], rhs: &mut [Padded], force: &mut [f64], drags: &mut [DragRows]) {
+    /// Per mode: the largest triangle rotation a unit of it makes, `max_t |W_t e_j|`, rad.
+    pub fn rotation_scales(&self) -> Vec<f64> {
+        let m = self.modes;
+        (0..m)
+            .map(|j| {
+                (self.rows.chunks_exact(6 * m))
+                    .flat_map(|rows| (0..LANES).map(move |l| (0..3).map(|r| rows[r * m + j][l].powi(2)).sum::<f64>()))
+                    .fold(0.0, f64::max)
+                    .sqrt()
+            })
+            .collect()
+    }
+
+    /// One pass at `q`: the right side `rhs` of the reconstruction (one 3-vector per unknown; not
+    /// computed if `None`), the generalised force `force` of the loads with moments `loads` (without
+    /// the gauges' centroid terms), and the Jacobian rows of every drag in `drags`.
+    pub fn run(
+        &self,
+        q: &[f64],
+        loads: &[Moments],
+        rhs: Option<&mut [Padded]>,
+        force: &mut [f64],
+        drags: &mut [DragRows],
+    ) {
         pulp::Arch::new().dispatch(Pass { pass: self, q, loads, rhs, force, drags });
     }
 }
@@ -189,7 +209,7 @@ struct Pass<'a> {
     pass: &'a TrianglePass,
     q: &'a [f64],
     loads: &'a [Moments],
-    rhs: &'a mut [Padded],
+    rhs: Option<&'a mut [Padded]>,
     force: &'a mut [f64],
     drags: &'a mut [DragRows],
 }
@@ -199,20 +219,22 @@ impl pulp::WithSimd for Pass<'_> {
 
     #[inline(always)]
     fn with_simd<S: Simd>(self, simd: S) {
-        let Self { pass, q, loads, rhs, force, drags } = self;
+        let Self { pass, q, loads, mut rhs, force, drags } = self;
         let m = pass.modes;
         let groups = LANES / S::F64_LANES;
         let zero = simd.splat_f64s(0.0);
         let qs: Vec<S::f64s> = q.iter().map(|&x| simd.splat_f64s(x)).collect();
         // Accumulators, one SIMD vector per group and mode: the force, then each drag's three rows.
         let mut acc = vec![zero; m * groups * (1 + 3 * drags.len())];
-        rhs.fill(Padded::ZERO);
+        if let Some(rhs) = rhs.as_deref_mut() {
+            rhs.fill(Padded::ZERO);
+        }
         for (c, (chunk, load)) in pass.chunks.iter().zip(loads).enumerate() {
             let rows = &pass.rows[c * 6 * m..(c + 1) * 6 * m];
             let mut change = [[[0.0; LANES]; 3]; 3];
             for g in 0..groups {
                 let t = Triangle::new(simd, rows, &qs, chunk, g);
-                for (k, out) in change.iter_mut().enumerate() {
+                for (k, out) in change.iter_mut().enumerate().filter(|_| rhs.is_some()) {
                     let d = t.change(simd, [at::<S>(&chunk.s[2 * k], g), at::<S>(&chunk.s[2 * k + 1], g)]);
                     for (lanes, di) in out.iter_mut().zip(d) {
                         let di: &[f64] = bytemuck::cast_slice(std::slice::from_ref(&di));
@@ -230,10 +252,12 @@ impl pulp::WithSimd for Pass<'_> {
                     }
                 }
             }
-            for (k, out) in change.iter().enumerate() {
-                for (lane, &u) in chunk.unknowns[k].iter().enumerate() {
-                    if let Some(b) = rhs.get_mut(u as usize) {
-                        *b += Padded::from(DVec3::new(out[0][lane], out[1][lane], out[2][lane]));
+            if let Some(rhs) = rhs.as_deref_mut() {
+                for (k, out) in change.iter().enumerate() {
+                    for (lane, &u) in chunk.unknowns[k].iter().enumerate() {
+                        if let Some(b) = rhs.get_mut(u as usize) {
+                            *b += Padded::from(DVec3::new(out[0][lane], out[1][lane], out[2][lane]));
+                        }
                     }
                 }
             }
