@@ -170,6 +170,14 @@ impl ModalDynamics {
                 q_hat[j] += correction[j];
                 v_hat[j] += correction[j] / h;
             }
+            let pulled = drags.iter().any(|(_, d)| matches!(d.kind, DragKind::Position(_)));
+            if let (Shape::RotationStrain(rs), true) = (&self.shape, pulled) {
+                let motion: Vec<f64> = q_hat.iter().zip(&self.q).map(|(a, b)| a - b).collect();
+                let trust = rs.drag_trust(&motion);
+                for j in 0..m {
+                    (q_hat[j], v_hat[j]) = (self.q[j] + trust * motion[j], trust * motion[j] / h);
+                }
+            }
         }
         let (q_old, g_old) = (std::mem::replace(&mut self.q, q_hat), self.force.clone());
         self.v = v_hat;
