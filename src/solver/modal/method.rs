@@ -44,7 +44,7 @@ pub const MWTS: Method = Method {
 pub const MWTS_RS: Method = Method {
     name: "mwts-rs",
     summary: "mwts's modes, positions solved globally from triangle rotations and strains, consistent forces: \
-              accurate far into large bends and twists (1/30 s steps)",
+              accurate far into large bends (1/30 s steps)",
     build: |setup| Ok(Box::new(ModalSolver::new(setup, Variant::MwtsRs)?)),
 };
 
