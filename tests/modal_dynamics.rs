@@ -15,7 +15,7 @@ use shellwarp::solver::modal::compute::{ModalProblem, analyse};
 use shellwarp::solver::modal::dynamics::{ModalDynamics, ModalParams, Shape};
 use shellwarp::solver::modal::method::{ModalSolver, Variant};
 use shellwarp::solver::{Drag, DragKind, DragSet, Solver};
-use twist_common::{RAMP, twist};
+use twist_common::{RAMP, helicoid_area_change, twist};
 
 /// An empty cache directory of this test's own.
 fn fresh_cache(name: &str) -> Cache {
@@ -39,7 +39,8 @@ fn mwts_twists_a_beam_smoothly_by_90_180_and_360_degrees_at_every_step() {
         eprintln!(
             "{degrees}°: MWTS tip at {:.1}°; over all 90 steps: width within {:.2}% (LMA: {:.0}%), largest twist \
              between neighbouring rows {:.2}°, largest change of a row in one step {:.1}°; centreline length \
-             within {:.2}%, area within {:.2}%, largest fold between neighbouring triangles {:.1}°",
+             within {:.2}%, area within {:.2}% (at the end {:+.2}%, a straight-axis helicoid {:+.2}%), largest fold \
+             between neighbouring triangles {:.1}°",
             mwts.end.to_degrees(),
             100.0 * mwts.width,
             100.0 * lma.width,
@@ -47,6 +48,8 @@ fn mwts_twists_a_beam_smoothly_by_90_180_and_360_degrees_at_every_step() {
             mwts.time_step.to_degrees(),
             100.0 * mwts.centreline,
             100.0 * mwts.area,
+            100.0 * mwts.end_area,
+            100.0 * helicoid_area_change(&setup, degrees),
             mwts.fold.to_degrees()
         );
         assert!(

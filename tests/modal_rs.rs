@@ -13,7 +13,7 @@ use shellwarp::eval::measure::{area_change, critical_damping, reference, relativ
 use shellwarp::scene;
 use shellwarp::solver;
 use shellwarp::solver::run::{Outcome, Stop, run};
-use twist_common::{RAMP, twist};
+use twist_common::{RAMP, helicoid_area_change, twist};
 
 mod modal_common;
 mod twist_common;
@@ -93,18 +93,36 @@ fn v_beam_gravity_sweep_up_to_the_collapse_of_its_section() {
 /// The strip of the `mwts` twist test (1 m × 0.1 m, 40 × 4, 12 modes, no gravity), its tip's middle
 /// vertex turned about the axis by an orientation drag over 30 steps, then held 60, every step
 /// checked: a smooth helix (the twist spreads evenly along the strip and in time), no flipped
-/// triangle, no NaN.
+/// triangle, no NaN, and an area that physics allows.
 ///
-/// Its centreline length and area stay within 1% up to half a turn; beyond, they cannot all stay
-/// within 1% for any reconstruction that keeps the axis straight: a helicoid of twist rate
-/// `θ' = Θ/L` (`L = 0.95 m` free) has the area of its rulings `∫√(1 + θ'²z²) dz`, `θ'²w²/24` more
-/// than flat — 0.11%, 0.46%, 1.8% and 6.9% at 90°, 180°, 360° and 720° — and keeping its edges'
-/// length instead shortens the centreline by about `θ'²w²/8` (22% at 720°). What `mwts-rs` adds on top
-/// is the exponential of the linear rotation vector: a torsion mode's triangles rotate by
-/// `ω = θ eₓ − θ' z e_z` (the twist and the tilt of the rows at offset `z`), and `exp([ω]×)` is not the
-/// helicoid's `exp(θ[eₓ]×) exp(−θ'z [e_z]×)`: at `θ = 2π` it loses the tilt, so the rows' targets
-/// disagree and the least-squares fit narrows the strip. Measured (area, centreline, width): 360°
-/// 2.4%, 0.97%, 6.5%; 720° 8.6%, 1.8%, 20% (`mwts`: 1.0%, 0%, 4.5% and 5.7%, 0%, 12.6%).
+/// **What the area may do.** Take the free part (length `L = 0.975 m` past the two clamped rows,
+/// width `w = 0.1 m`) twisted by `θ` about a straight axis: the helicoid `(s, −r sin ks, r cos ks)`,
+/// `s ∈ [0, L]`, `r ∈ [−w/2, w/2]`, `k = θ/L`. Its area element is `√(1 + k²r²) dr ds`, so
+/// `A(θ) = L ∫ √(1 + k²r²) dr = L (w/2 · √(1 + (kw/2)²) + asinh(kw/2)/k) ≈ Lw (1 + k²w²/24)`: every
+/// ruling keeps its width `w` and the lines at `r` lengthen by `√(1 + k²r²)` (the edges by 0.32%,
+/// 1.3%, 5.1% and 19% at 90°, 180°, 360° and 720°). Against the rest area `Lw`, plus the flat clamped
+/// part (`twist_common::helicoid_area_change`): **+0.105%, +0.420%, +1.66% and +6.38%** of the
+/// strip's area at 90°, 180°, 360° and 720° (free part alone +0.108, +0.431, +1.70, +6.54%). An
+/// elastic strip lies between that helicoid and the same strip with its lines unstretched and its
+/// centreline shortened instead (about `k²w²/8`, 22% at 720°): its area change is within
+/// `[0, A(θ)/Lw − 1]`, and so a 1% bound on both area and centreline at 720° asks for something no
+/// strip does. Nothing in it narrows the rulings: a strip that loses area is wrong.
+///
+/// Asserted: the area change at the end lies in `[−0.5%, helicoid + 0.5%]` (0.5% of slack for 12
+/// modes and the mesh), at 90° and 180°, with the centreline within 1%. Measured at the end of the
+/// hold (`mwts-rs` / `mwts` / helicoid): 90° −0.028% / +0.163% / +0.105%; 180° −0.401% / +0.323% /
+/// +0.420%; 360° **−2.39%** / +0.990% / +1.66%; 720° **−8.60%** / +5.68% / +6.38%. So past half a turn
+/// `mwts-rs` fails this check — with the opposite sign to the helicoid, the rows narrowing (widths
+/// within 6.5% and 20%, centreline 0.97% and 1.8%), while `mwts` stays within 0.7 points of it — and
+/// those angles are reported, not asserted. The cause: a torsion mode's triangles rotate by
+/// `ω = θ eₓ − k r e_z` (the twist and the tilt of the lines at offset `r`), and `exp([ω]×)` is not the
+/// helicoid's `exp(θ[eₓ]×) exp(−kr[e_z]×)`: at `θ = 2π` the first is nearly the identity and the tilt
+/// is lost, the rows' targets disagree and the least-squares fit narrows the strip. Composing the
+/// rotations along the material (the differences `ω_t − ω_parent` applied in the parent's frame,
+/// outward from the clamp) would give the helicoid's rotations; it is not implemented.
+/// Slack on the twisted strip's area change beyond `[0, helicoid]` (documentation above).
+const AREA_SLACK: f64 = 0.005;
+
 #[test]
 fn a_tip_twisted_by_up_to_two_turns_gives_a_smooth_helix() {
     let segments = [40, 4];
@@ -116,12 +134,16 @@ fn a_tip_twisted_by_up_to_two_turns_gives_a_smooth_helix() {
             s.scene.solver.method = method.into();
             twist(solver::build(&s).unwrap().as_mut(), &setup, tip, degrees)
         });
+        let helicoid = helicoid_area_change(&setup, degrees);
         for (name, t) in [("mwts", &mwts), ("mwts-rs", &rs)] {
             eprintln!(
-                "{degrees}° {name}: tip at {:.1}°; over all 90 steps: centreline length within {:.3}%, area within \
+                "{degrees}° {name}: tip at {:.1}°, area change at the end {:+.3}% (straight-axis helicoid {:+.3}%); \
+                 over all 90 steps: centreline length within {:.3}%, area within \
                  {:.3}%, width within {:.2}%, largest twist between neighbouring rows {:.2}°, largest change of a row \
                  in one step {:.1}°, largest fold between neighbouring triangles {:.1}°",
                 t.end.to_degrees(),
+                100.0 * t.end_area,
+                100.0 * helicoid,
                 100.0 * t.centreline,
                 100.0 * t.area,
                 100.0 * t.width,
@@ -142,11 +164,14 @@ fn a_tip_twisted_by_up_to_two_turns_gives_a_smooth_helix() {
         assert!(rs.time_step.to_degrees() < 3.0 * degrees / RAMP as f64, "{degrees}°: a row jumps in one step");
         assert!(rs.fold.to_degrees() < 90.0, "{degrees}°: a triangle flipped ({:.0}°)", rs.fold.to_degrees());
         if degrees <= 180.0 {
+            assert!(rs.centreline < 0.01, "{degrees}°: centreline length changed by {:.2e}", rs.centreline);
             assert!(
-                rs.centreline < 0.01 && rs.area < 0.01,
-                "{degrees}°: length {:.2e}, area {:.2e}",
-                rs.centreline,
-                rs.area
+                (-AREA_SLACK..=helicoid + AREA_SLACK).contains(&rs.end_area),
+                "{degrees}°: area change {:+.3}% outside [{:+.2}%, helicoid {:+.3}% {:+.2}%]",
+                100.0 * rs.end_area,
+                -100.0 * AREA_SLACK,
+                100.0 * helicoid,
+                100.0 * AREA_SLACK
             );
         }
     }

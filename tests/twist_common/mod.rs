@@ -29,6 +29,26 @@ pub struct Twist {
     pub fold: f64,
     /// Final twist of the tip row, rad.
     pub end: f64,
+    /// Relative area change at the last step (signed).
+    pub end_area: f64,
+}
+
+/// The relative area change of the strip of `setup` if its free part were a helicoid twisted by
+/// `degrees` about a straight axis, its clamped part flat. The free part (length `L`, width `w`,
+/// twist rate `k = θ/L`) is `(s, r cos ks, r sin ks)` for `s ∈ [0, L]`, `r ∈ [−w/2, w/2]`, with area
+/// element `√(1 + k²r²) dr ds`: `A = L ∫ √(1 + k²r²) dr = L (w/2 √(1 + (kw/2)²) + asinh(kw/2)/k)`
+/// (every ruling keeps its length `w`; the edges, at `r = ±w/2`, lengthen by `√(1 + (kw/2)²)`).
+pub fn helicoid_area_change(setup: &Setup, degrees: f64) -> f64 {
+    let rest = setup.mesh.positions();
+    let w = (rest[PER_ROW - 1] - rest[0]).length();
+    let end = rest.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max);
+    let start = rest.iter().map(|p| p.x).fold(f64::INFINITY, f64::min);
+    let clamp = setup.anchors.iter().map(|&v| rest[v].x).fold(start, f64::max);
+    let (total, free) = (end - start, end - clamp);
+    let k = degrees.to_radians() / free;
+    let half = 0.5 * k * w;
+    let twisted = if k == 0.0 { free * w } else { free * (0.5 * w * (1.0 + half * half).sqrt() + half.asinh() / k) };
+    (twisted + (total - free) * w) / (total * w) - 1.0
 }
 
 /// Twist angle of each cross-section row about the beam axis, unwrapped from the clamp outwards.
@@ -61,8 +81,16 @@ pub fn twist(s: &mut dyn Solver, setup: &Setup, tip: usize, degrees: f64) -> Twi
     let length = centreline(rest);
     let target = |step: usize| DVec3::X * degrees.to_radians() * ((step + 1).min(RAMP) as f64 / RAMP as f64);
     let id = s.drags_mut().add(Drag { vertex: tip, kind: DragKind::Orientation(target(0)) }).unwrap();
-    let mut worst =
-        Twist { width: 0.0, row_step: 0.0, time_step: 0.0, centreline: 0.0, area: 0.0, fold: 0.0, end: 0.0 };
+    let mut worst = Twist {
+        width: 0.0,
+        row_step: 0.0,
+        time_step: 0.0,
+        centreline: 0.0,
+        area: 0.0,
+        fold: 0.0,
+        end: 0.0,
+        end_area: 0.0,
+    };
     let tris = setup.mesh.triangles();
     let mut previous = vec![0.0; rows];
     for step in 0..90 {
@@ -75,7 +103,8 @@ pub fn twist(s: &mut dyn Solver, setup: &Setup, tip: usize, degrees: f64) -> Twi
             worst.width = worst.width.max((w / width - 1.0).abs());
         }
         worst.centreline = worst.centreline.max((centreline(x) / length - 1.0).abs());
-        worst.area = worst.area.max(area_change(x, setup).abs());
+        worst.end_area = area_change(x, setup);
+        worst.area = worst.area.max(worst.end_area.abs());
         let normal = |t: usize| (x[tris[t][1]] - x[tris[t][0]]).cross(x[tris[t][2]] - x[tris[t][0]]);
         for h in &setup.mesh.topology().hinges {
             worst.fold = worst.fold.max(normal(h.faces[0]).angle_between(normal(h.faces[1])));
