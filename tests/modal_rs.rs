@@ -181,7 +181,9 @@ fn a_tip_twisted_by_up_to_two_turns_gives_a_smooth_helix() {
 /// trust region of `rotation_strain`): reachable pulls are met (the tip lifted against gravity, which
 /// sags it 0.23 m), a sideways pull toward the clamp (which `mwts` only approaches) is met too, and a
 /// pull the modes cannot follow — 0.22 m at the creature's head with 4 modes, which without the trust
-/// region took its energy from 1.6e3 to 2e6 J — settles instead of thrashing.
+/// region took its energy from 1.6e3 to 2e6 J, and with a fixed trust radius flipped between two
+/// shapes every step at equal energies — settles instead of thrashing: by energy, and by motion (over
+/// the second half of every run no vertex moves by a millimetre in a step).
 #[test]
 fn position_drags_are_met_where_the_modes_reach_and_settle_where_they_do_not() {
     let run = |scene_name: &str, vertex: Option<usize>, offset: DVec3, steps: usize| {
@@ -194,13 +196,23 @@ fn position_drags_are_met_where_the_modes_reach_and_settle_where_they_do_not() {
         s.drags_mut()
             .add(shellwarp::solver::Drag { vertex, kind: shellwarp::solver::DragKind::Position(target) })
             .unwrap();
-        let energies: Vec<f64> = (0..steps).map(|_| s.step().unwrap().energy).collect();
+        // Energy and the largest move of any vertex in one step, over the second half.
+        let (mut energies, mut moves) = (Vec::new(), Vec::new());
+        for _ in 0..steps {
+            let before = s.positions().to_vec();
+            energies.push(s.step().unwrap().energy);
+            moves.push(before.iter().zip(s.positions()).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max));
+        }
         let late = &energies[steps / 2..];
         let (lo, hi) = late.iter().fold((f64::MAX, 0.0f64), |(l, h), &e| (l.min(e), h.max(e)));
+        let moving = moves[steps / 2..].iter().fold(0.0f64, |a, &b| a.max(b));
         let gap = (s.positions()[vertex] - target).length();
         eprintln!(
-            "{scene_name}, vertex {vertex} pulled by {offset}: {gap:.4} m short; late energy in [{lo:.4e}, {hi:.4e}] J"
+            "{scene_name}, vertex {vertex} pulled by {offset}: {gap:.4} m short; late energy in [{lo:.4e}, {hi:.4e}] J, \
+             late moves up to {moving:.2e} m a step"
         );
+        // Settled: over the second half no vertex moves by a millimetre in a step.
+        assert!(moving < 1e-3, "{scene_name}: still moving by {moving:.2e} m a step");
         (gap, lo, hi)
     };
     // The cantilever's tip lifted (bending: within reach of its 8 modes).

@@ -17,7 +17,8 @@
 //! `q⁺ = q̂ + D Jᵀ μ`. Position
 //! constraints `X_i + u_i(q) = p*` are linearised about the current rotations
 //! (`J = B(w_i) Φ_i`, with `B` the warp operator, or `Φ_i` for LMA; for MWTS-RS about the current
-//! `q`, `u_i(q + δ) ≈ u_i(q) + J_i(q) δ` with the reconstruction's exact Jacobian rows); orientation
+//! `q`, `u_i(q + δ) ≈ u_i(q) + J_i δ` with the reconstruction's exact Jacobian rows, recomputed once
+//! a triangle has turned by [`super::rotation_strain::ROWS_TURN`]); orientation
 //! constraints `Ψ_i q = w*` are linear. Writing each linearised constraint as `o + J q = t` (the
 //! offset `o = u_i(q) − J_i q` is zero except for MWTS-RS), the multipliers solve the damped
 //! least-squares system `(J D Jᵀ + ε I) μ = t − o − J q̂` with `ε = damping · trace(J D Jᵀ) / rows` — equivalently, each drag
@@ -171,7 +172,7 @@ impl ModalDynamics {
                 v_hat[j] += correction[j] / h;
             }
             let pulled = drags.iter().any(|(_, d)| matches!(d.kind, DragKind::Position(_)));
-            if let (Shape::RotationStrain(rs), true) = (&self.shape, pulled) {
+            if let (Shape::RotationStrain(rs), true) = (&mut self.shape, pulled) {
                 let motion: Vec<f64> = q_hat.iter().zip(&self.q).map(|(a, b)| a - b).collect();
                 let trust = rs.drag_trust(&motion);
                 for j in 0..m {

@@ -35,16 +35,23 @@
 //!
 //! **Drags.** A position drag on vertex `i` is linearised with the rows `J_i(q)` of the exact
 //! Jacobian (the adjoint with `f = e_i ⊗ e_a`; the scalar field `z = L⁻¹ e_i` is kept while the drag
-//! lasts). The positions integrate the rotations over the whole shell, so a far target can ask for
-//! modal amplitudes whose rotations, somewhere else, are far outside the linearisation's reach: on
-//! the creature (4 modes) a 0.22 m pull on the head took some triangles past half a turn in the first
+//! lasts). The rows are computed in the step's pass only once some triangle may have turned by
+//! [`ROWS_TURN`] since they last were: the constraint is linearised about the current position
+//! `x_i(q)`, so rows a little old change how fast a drag converges, not where it settles. The
+//! positions integrate the rotations over the whole shell, so a far target can ask for modal
+//! amplitudes whose rotations, somewhere else, are far outside the linearisation's reach: on the
+//! creature (4 modes) a 0.22 m pull on the head took some triangles past half a turn in the first
 //! step, and the following steps never settled (the energy grew from 1.6e3 to 2e6 J). So while a
 //! position drag is active a step is a trust-region step: if it would turn some triangle by more than
-//! [`DRAG_TURN`] (by the bound `Σ_j |Δq_j| max_t |W_t e_j|`) the whole step `Δq` (elastic response
-//! and drag correction) is scaled down to that. Equilibria, where `Δq = 0`, are not moved; a far
-//! target is reached over several steps, or — out of the modes' reach — settles at a compromise (the
-//! creature's head ends 0.19 m short of that pull, with an elastic energy of 1.1e2 J, where `mwts`
-//! warps it onto the target at 1.4e3 J). An orientation drag acts on the triangle rotations: it pins the area-weighted mean of the
+//! [`DRAG_TURN`] (by the bound `Σ_j |Δq_j| s_j`, `s_j = max_t |W_t e_j|`) the whole step `Δq` (elastic
+//! response and drag correction) is scaled down to that, and then by a relaxation that halves
+//! whenever a step turns back against the previous one (`Σ_j s_j² Δq_j Δq'_j < 0`) and grows by a
+//! quarter otherwise (between 1/1024 and 1): without it that pull never settled either, `q` flipping
+//! every step between two shapes a full `DRAG_TURN` apart (the head moving 3 cm a step, at equal
+//! energies, so it looked settled by energy). Equilibria, where `Δq = 0`, are not moved; a
+//! far target is reached over several steps, or — out of the modes' reach — settles at a compromise
+//! (measured in `tests/modal_rs.rs`). An orientation drag acts on the triangle rotations: it pins the
+//! area-weighted mean of the
 //! rotation vectors `ω_t` of the vertex's triangles — exactly `Ψ_i q`, so its rows are `mwts`'s.
 
 use glam::DVec3;
@@ -59,6 +66,10 @@ use crate::solver::SolverError;
 /// The most a step under a position drag may turn any triangle, rad (module documentation).
 pub const DRAG_TURN: f64 = 0.25;
 
+/// How far any triangle may have turned (by the bound of [`RotationStrain::drag_trust`]) since the
+/// position drags' Jacobian rows were computed before they are computed again, rad.
+pub const ROWS_TURN: f64 = 0.01;
+
 /// The reconstruction and its adjoint for one mesh, its anchors and a modal basis.
 #[derive(Debug)]
 pub struct RotationStrain {
@@ -71,8 +82,14 @@ pub struct RotationStrain {
     loads: Vec<Moments>,
     /// Per gauge: the net load on the component.
     net: Vec<DVec3>,
-    /// The position drags' Jacobian rows, at the `q` of the last update.
+    /// The position drags' Jacobian rows, at `rows_at`.
     drags: Vec<DragRows>,
+    /// The `q` at which the drags' rows were computed (empty: never, or a drag or basis changed).
+    rows_at: Vec<f64>,
+    /// The relaxation of steps under position drags, and the last step it allowed
+    /// ([`RotationStrain::drag_trust`]).
+    relax: f64,
+    last_step: Vec<f64>,
     /// The load stiffness `H = ∂g/∂q` (module documentation), or `None` until the next update
     /// computes it.
     stiffness: Option<DMatrix<f64>>,
@@ -95,6 +112,9 @@ impl RotationStrain {
             u: vec![DVec3::ZERO; rest.len()],
             centroid_modes: Vec::new(),
             drags: Vec::new(),
+            rows_at: Vec::new(),
+            relax: 1.0,
+            last_step: Vec::new(),
             stiffness: None,
             scales: Vec::new(),
             laplacian,
@@ -115,6 +135,8 @@ impl RotationStrain {
         self.centroid_modes =
             self.laplacian.gauges().iter().map(|g| (0..basis.modes()).map(|j| centroid(g, j)).collect()).collect();
         self.drags.iter_mut().for_each(|d| d.rows = vec![0.0; 3 * basis.modes()]);
+        self.rows_at.clear();
+        self.last_step.clear();
         self.scales = self.pass.rotation_scales();
         self.stiffness = None;
     }
@@ -130,10 +152,18 @@ impl RotationStrain {
         self.stiffness = None;
     }
 
-    /// Positions `x(q)`, the generalised force `g(q) = J(q)ᵀ f` and the position drags' Jacobian rows;
-    /// the load stiffness too if it is due.
+    /// Positions `x(q)` and the generalised force `g(q) = J(q)ᵀ f`; the position drags' Jacobian rows
+    /// and the load stiffness too if they are due (the rows once some triangle may have turned by
+    /// [`ROWS_TURN`] since they were computed: a drag's step is linearised about its current
+    /// position with them, so older rows change how fast it converges, not where it settles).
     pub fn update(&mut self, q: &[f64], positions: &mut [DVec3], force: &mut [f64]) {
-        self.pass.run(q, &self.loads, Some(self.laplacian.rhs_mut()), force, &mut self.drags);
+        let moved = |at: &[f64]| q.iter().zip(at).zip(&self.scales).map(|((a, b), s)| (a - b).abs() * s).sum::<f64>();
+        let due = !self.drags.is_empty() && (self.rows_at.len() != q.len() || moved(&self.rows_at) > ROWS_TURN);
+        let drags = if due { &mut self.drags[..] } else { &mut [] };
+        self.pass.run(q, &self.loads, Some(self.laplacian.rhs_mut()), force, drags);
+        if due {
+            self.rows_at = q.to_vec();
+        }
         self.add_centroid_forces(force);
         let centroids: Vec<DVec3> =
             (self.centroid_modes.iter()).map(|modes| modes.iter().zip(q).map(|(c, qj)| *c * *qj).sum()).collect();
@@ -148,10 +178,15 @@ impl RotationStrain {
 
     /// The trust region of a step `dq` under a position drag (module documentation): the factor (at
     /// most 1) that keeps the bound `Σ_j |dq_j| max_t |W_t e_j|` on any triangle's turn within
-    /// [`DRAG_TURN`].
-    pub fn drag_trust(&self, dq: &[f64]) -> f64 {
+    /// [`DRAG_TURN`], times the relaxation, which halves when the step turns back against the last
+    /// one and grows by a quarter when it does not (between 1/1024 and 1).
+    pub fn drag_trust(&mut self, dq: &[f64]) -> f64 {
         let turn: f64 = dq.iter().zip(&self.scales).map(|(d, s)| d.abs() * s).sum();
-        if turn > DRAG_TURN { DRAG_TURN / turn } else { 1.0 }
+        let back: f64 = (dq.iter().zip(&self.last_step).zip(&self.scales)).map(|((a, b), s)| a * b * s * s).sum();
+        self.relax = if back < 0.0 { 0.5 * self.relax } else { 1.25 * self.relax }.clamp(1.0 / 1024.0, 1.0);
+        let trust = self.relax * if turn > DRAG_TURN { DRAG_TURN / turn } else { 1.0 };
+        self.last_step = dq.iter().map(|d| d * trust).collect();
+        trust
     }
 
     /// The load stiffness `H = ∂g/∂q` in use (module documentation).
@@ -200,9 +235,10 @@ impl RotationStrain {
         (&h + h.transpose()) * 0.5
     }
 
-    /// The Jacobian `∂x_vertex/∂q` at the `q` of the last update (3 rows, x, y, z, of `m`). A vertex
-    /// asked for the first time gets its adjoint field, and the update is redone at `q` to fill its
-    /// rows (same positions and force); it is kept until [`RotationStrain::keep_drags`] drops it.
+    /// The Jacobian `∂x_vertex/∂q` (3 rows, x, y, z, of `m`) at the `q` where the rows were last due
+    /// ([`RotationStrain::update`]). A vertex asked for the first time gets its adjoint field, and the
+    /// update is redone at `q` to fill every drag's rows (same positions and force); it is kept until
+    /// [`RotationStrain::keep_drags`] drops it.
     pub fn position_rows(&mut self, vertex: usize, q: &[f64], positions: &mut [DVec3], force: &mut [f64]) -> Vec<f64> {
         if !self.drags.iter().any(|d| d.vertex == vertex) {
             let mut f = vec![DVec3::ZERO; self.rest.len()];
@@ -212,6 +248,9 @@ impl RotationStrain {
             let (y, _) = self.laplacian.adjoint(&f);
             let z: Vec<f64> = y.iter().map(|v| v.x).collect();
             self.drags.push(self.pass.drag_rows(vertex, &z));
+            self.rows_at.clear();
+            self.last_step.clear();
+            self.relax = 1.0;
             self.update(q, positions, force);
         }
         let m = q.len();
