@@ -1,7 +1,7 @@
 //! Position-based cloth, one frame of 1/60 s (all its substeps): the 961-particle drape by `xpbd` and
 //! by `pbd`, falling onto the ball and at rest on it; the `pile` (715 particles, self-collision) while
 //! it folds onto the ground and at rest; and 10,000-particle sheets with self-collision on, at the
-//! pile's substeps and iterations: the hanging sheet swinging from its two clips, and the pile itself
+//! pile's substeps and sweeps: the hanging sheet swinging from its two clips, and the pile itself
 //! refined (segments 38 × 255, thickness scaled with the edges) while it folds.
 //! Run: `cargo bench --bench pbd`.
 
@@ -26,14 +26,14 @@ fn state(scene_name: &str, sets: &[&str], variant: Variant, frames: usize) -> Pb
 
 /// `xpbd` on the drape: 1/60 s frames of 10 substeps of one iteration.
 const DRAPE_XPBD: [&str; 4] =
-    ["solver.step=0.0166666666666667", "solver.substeps=10", "solver.iterations=1", "solver.method=xpbd"];
+    ["solver.step=0.0166666666666667", "solver.substeps=10", "solver.sweeps=1", "solver.method=xpbd"];
 
 /// The pile's settings on a sheet of 10,000 particles.
 const SHEET: [&str; 6] = [
     "mesh.grid.segments=[99,99]",
     "solver.step=0.0166666666666667",
     "solver.substeps=4",
-    "solver.iterations=2",
+    "solver.sweeps=2",
     "solver.self_collision=true",
     "solver.thickness=0.002",
 ];

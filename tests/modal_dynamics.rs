@@ -4,6 +4,7 @@
 //! fresh, private mode cache.
 
 mod modal_common;
+mod twist_common;
 
 use glam::DVec3;
 use modal_common::strip;
@@ -11,9 +12,10 @@ use shellwarp::energy::ShellStiffness;
 use shellwarp::scene::{self, Setup};
 use shellwarp::solver::modal::cache::Cache;
 use shellwarp::solver::modal::compute::{ModalProblem, analyse};
-use shellwarp::solver::modal::dynamics::{ModalDynamics, ModalParams};
-use shellwarp::solver::modal::method::ModalSolver;
+use shellwarp::solver::modal::dynamics::{ModalDynamics, ModalParams, Shape};
+use shellwarp::solver::modal::method::{ModalSolver, Variant};
 use shellwarp::solver::{Drag, DragKind, DragSet, Solver};
+use twist_common::{RAMP, helicoid_area_change, twist};
 
 /// An empty cache directory of this test's own.
 fn fresh_cache(name: &str) -> Cache {
@@ -22,41 +24,33 @@ fn fresh_cache(name: &str) -> Cache {
     Cache::at(dir)
 }
 
-/// Twist angle of each cross-section row about the beam axis, unwrapped from the clamp outwards.
-fn twist_profile(x: &[DVec3], rows: usize, per_row: usize) -> Vec<f64> {
-    let mut out = Vec::with_capacity(rows);
-    let mut prev = 0.0;
-    for i in 0..rows {
-        let d = x[i * per_row + per_row - 1] - x[i * per_row];
-        let mut a = (-d.y).atan2(d.z);
-        while a - prev > std::f64::consts::PI {
-            a -= std::f64::consts::TAU;
-        }
-        while a - prev < -std::f64::consts::PI {
-            a += std::f64::consts::TAU;
-        }
-        out.push(a);
-        prev = a;
-    }
-    out
-}
-
 #[test]
 fn mwts_twists_a_beam_smoothly_by_90_180_and_360_degrees_at_every_step() {
     let segments = [40, 4];
     let setup = strip(1.0, 0.1, segments, true, &["solver.modes=12", "gravity=[0, 0, 0]", "solver.rayleigh_alpha=4"]);
     let tip = segments[0] * (segments[1] + 1) + segments[1] / 2;
     for degrees in [90.0f64, 180.0, 360.0] {
-        let mwts = twist(&setup, tip, degrees, true);
-        let lma = twist(&setup, tip, degrees, false);
+        let run = |warp: bool| {
+            let cache = fresh_cache(&format!("twist-{degrees}-{warp}"));
+            let variant = if warp { Variant::Mwts } else { Variant::Lma };
+            twist(&mut ModalSolver::with_cache(&setup, variant, cache).unwrap(), &setup, tip, degrees)
+        };
+        let (mwts, lma) = (run(true), run(false));
         eprintln!(
             "{degrees}°: MWTS tip at {:.1}°; over all 90 steps: width within {:.2}% (LMA: {:.0}%), largest twist \
-             between neighbouring rows {:.2}°, largest change of a row in one step {:.1}°",
+             between neighbouring rows {:.2}°, largest change of a row in one step {:.1}°; centreline length \
+             within {:.2}%, area within {:.2}% (at the end {:+.2}%, a straight-axis helicoid {:+.2}%), largest fold \
+             between neighbouring triangles {:.1}°",
             mwts.end.to_degrees(),
             100.0 * mwts.width,
             100.0 * lma.width,
             mwts.row_step.to_degrees(),
-            mwts.time_step.to_degrees()
+            mwts.time_step.to_degrees(),
+            100.0 * mwts.centreline,
+            100.0 * mwts.area,
+            100.0 * mwts.end_area,
+            100.0 * helicoid_area_change(&setup, degrees),
+            mwts.fold.to_degrees()
         );
         assert!(
             (mwts.end.to_degrees() - degrees).abs() < 0.1 * degrees,
@@ -74,55 +68,6 @@ fn mwts_twists_a_beam_smoothly_by_90_180_and_360_degrees_at_every_step() {
     }
 }
 
-/// Steps over which the twist target turns (1 s), as a hand would turn it; then it holds.
-const RAMP: usize = 30;
-
-/// The worst figures of a twist run over every step.
-struct Twist {
-    /// Largest relative change of a cross-section's width.
-    width: f64,
-    /// Largest twist between neighbouring rows, rad.
-    row_step: f64,
-    /// Largest change of one row's twist from one step to the next, rad.
-    time_step: f64,
-    /// Final twist of the tip row, rad.
-    end: f64,
-}
-
-/// Twist the strip's tip by `degrees` about its axis with an orientation drag (MWTS, or LMA if not
-/// `warp`), checking every one of 90 steps.
-fn twist(setup: &Setup, tip: usize, degrees: f64, warp: bool) -> Twist {
-    let per_row = 5;
-    let rows = setup.mesh.vertex_count() / per_row;
-    let width = (setup.mesh.positions()[per_row - 1] - setup.mesh.positions()[0]).length();
-    let cache = fresh_cache(&format!("twist-{degrees}-{warp}"));
-    let mut s = ModalSolver::with_cache(setup, warp, cache).unwrap();
-    let target = |step: usize| DVec3::X * degrees.to_radians() * ((step + 1).min(RAMP) as f64 / RAMP as f64);
-    let id = s.drags_mut().add(Drag { vertex: tip, kind: DragKind::Orientation(target(0)) }).unwrap();
-    let mut worst = Twist { width: 0.0, row_step: 0.0, time_step: 0.0, end: 0.0 };
-    let mut previous = vec![0.0; rows];
-    for step in 0..90 {
-        s.drags_mut().retarget(id, DragKind::Orientation(target(step))).unwrap();
-        s.step().unwrap_or_else(|e| panic!("{degrees}°, step {step}: {e}"));
-        let x = s.positions();
-        assert!(x.iter().all(|p| p.is_finite()), "{degrees}°, step {step}: finite");
-        for i in 0..rows {
-            let w = (x[i * per_row + per_row - 1] - x[i * per_row]).length();
-            worst.width = worst.width.max((w / width - 1.0).abs());
-        }
-        let profile = twist_profile(x, rows, per_row);
-        for w in profile.windows(2) {
-            worst.row_step = worst.row_step.max((w[1] - w[0]).abs());
-        }
-        for (a, b) in profile.iter().zip(&previous) {
-            worst.time_step = worst.time_step.max((a - b).abs());
-        }
-        previous = profile;
-    }
-    worst.end = previous[rows - 1];
-    worst
-}
-
 /// The cantilever scene's modes (no external force) as a bare `ModalDynamics`, with its masses.
 fn cantilever_dynamics(modes: usize, overrides: &[&str]) -> (ModalDynamics, Vec<f64>, Setup) {
     let setup = scene::load("cantilever", &overrides.iter().map(|o| o.to_string()).collect::<Vec<_>>()).unwrap();
@@ -137,7 +82,7 @@ fn cantilever_dynamics(modes: usize, overrides: &[&str]) -> (ModalDynamics, Vec<
         keep_rigid: false,
     };
     let basis = analyse(&p, &|_| {}).unwrap().basis;
-    let dynamics = ModalDynamics::new(basis, setup.mesh.positions().to_vec(), Vec::new(), true);
+    let dynamics = ModalDynamics::new(basis, setup.mesh.positions().to_vec(), Vec::new(), Shape::Warp);
     (dynamics, masses, setup)
 }
 
@@ -236,7 +181,7 @@ fn unit(m: usize, j: usize) -> Vec<f64> {
 #[test]
 fn changing_the_mode_count_recomputes_in_the_background_and_carries_the_state_over() {
     let setup = scene::load("cantilever", &["solver.modes=6".into()]).unwrap();
-    let mut s = ModalSolver::with_cache(&setup, true, fresh_cache("mode-count")).unwrap();
+    let mut s = ModalSolver::with_cache(&setup, Variant::Mwts, fresh_cache("mode-count")).unwrap();
     assert_eq!(s.analysis().basis.modes(), 6);
     for _ in 0..20 {
         s.step().unwrap();
@@ -278,7 +223,7 @@ fn changing_the_mode_count_recomputes_in_the_background_and_carries_the_state_ov
 fn an_unreachable_drag_stays_calm_under_the_default_damping() {
     // Pulling the tip sideways and toward the clamp asks the bending modes for what they cannot do.
     let setup = scene::load("cantilever", &[]).unwrap();
-    let mut s = ModalSolver::with_cache(&setup, true, fresh_cache("unreachable")).unwrap();
+    let mut s = ModalSolver::with_cache(&setup, Variant::Mwts, fresh_cache("unreachable")).unwrap();
     let tip = 204;
     let target = DVec3::new(0.35, 0.2, 0.15);
     s.drags_mut().add(Drag { vertex: tip, kind: DragKind::Position(target) }).unwrap();

@@ -1,5 +1,5 @@
 //! Position-based cloth (`pbd`, `xpbd`) against what the sources claim and the issue asks:
-//! XPBD's stiffness does not depend on iterations or substeps (PBD's does), a pressurised balloon holds
+//! XPBD's stiffness does not depend on sweeps or substeps (PBD's does), a pressurised balloon holds
 //! its volume, momentum passes between the cloth and a dynamic body, bodies come to rest on the cloth
 //! and do not pass through it, bad input is refused by name, and divergence is reported.
 
@@ -36,30 +36,30 @@ fn sag(setup: &Setup, damping: f64, seconds: f64) -> f64 {
 }
 
 #[test]
-fn xpbd_sag_does_not_depend_on_iterations_or_substeps_and_pbd_sag_does() {
-    let xpbd = |iterations: usize, substeps: usize| {
+fn xpbd_sag_does_not_depend_on_sweeps_or_substeps_and_pbd_sag_does() {
+    let xpbd = |sweeps: usize, substeps: usize| {
         sag(
-            &hammock("xpbd", &[&format!("solver.iterations={iterations}"), &format!("solver.substeps={substeps}")]),
+            &hammock("xpbd", &[&format!("solver.sweeps={sweeps}"), &format!("solver.substeps={substeps}")]),
             5.0,
             4.0,
         )
     };
-    let (base, more_iterations, smaller_steps) = (xpbd(4, 20), xpbd(8, 20), xpbd(4, 40));
-    let pbd = |iterations: usize| sag(&hammock("pbd", &[&format!("solver.iterations={iterations}")]), 5.0, 4.0);
+    let (base, more_sweeps, smaller_steps) = (xpbd(4, 20), xpbd(8, 20), xpbd(4, 40));
+    let pbd = |sweeps: usize| sag(&hammock("pbd", &[&format!("solver.sweeps={sweeps}")]), 5.0, 4.0);
     let (p1, p2) = (pbd(20), pbd(40));
     eprintln!(
-        "xpbd mean sag {:.2} mm; twice the iterations {:.2} mm; half the substep {:.2} mm. pbd {:.2} mm at 20 iterations, {:.2} mm at 40",
+        "xpbd mean sag {:.2} mm; twice the sweeps {:.2} mm; half the substep {:.2} mm. pbd {:.2} mm at 20 sweeps, {:.2} mm at 40",
         1e3 * base,
-        1e3 * more_iterations,
+        1e3 * more_sweeps,
         1e3 * smaller_steps,
         1e3 * p1,
         1e3 * p2
     );
     let change = |a: f64, b: f64| (a - b).abs() / a;
     assert!(
-        change(base, more_iterations) < 0.05,
-        "iterations changed the sag by {:.1}%",
-        100.0 * change(base, more_iterations)
+        change(base, more_sweeps) < 0.05,
+        "sweeps changed the sag by {:.1}%",
+        100.0 * change(base, more_sweeps)
     );
     assert!(
         change(base, smaller_steps) < 0.05,
@@ -125,7 +125,7 @@ fn momentum_passes_from_a_ball_to_the_cloth_it_hits() {
 /// Drop a dynamic body on the hammock (no ground below); after `seconds`, its height above the
 /// sheet's lowest point and its speed.
 fn drop_on_hammock(body: &str, extra: &[&str], seconds: f64) -> (f64, f64) {
-    let mut o = vec![format!("colliders=[{{ {body} }}]"), "solver.substeps=10".into(), "solver.iterations=2".into()];
+    let mut o = vec![format!("colliders=[{{ {body} }}]"), "solver.substeps=10".into(), "solver.sweeps=2".into()];
     o.extend(extra.iter().map(|s| s.to_string()));
     let refs: Vec<&str> = o.iter().map(String::as_str).collect();
     let setup = hammock("xpbd", &refs);

@@ -108,6 +108,7 @@ fn every_validation_check_names_its_key() {
         ("solver.constraint_damping=0".into(), "solver.constraint_damping", "must be positive"),
         ("solver.iterations=0".into(), "solver.iterations", "at least 1"),
         ("solver.substeps=0".into(), "solver.substeps", "at least 1"),
+        ("solver.sweeps=0".into(), "solver.sweeps", "at least 1"),
         ("solver.thickness=-0.01".into(), "solver.thickness", "must be positive"),
         ("material.compliance_stretch=-1e-3".into(), "material.compliance_stretch", "must not be negative"),
         ("material.compliance_bend=-1".into(), "material.compliance_bend", "must not be negative"),

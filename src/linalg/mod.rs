@@ -2,7 +2,8 @@
 //! shift-invert Lanczos for the lowest modes ([`lanczos`]),
 //! the block sparsity pattern of a `3n × 3n` Hessian computed once from element stencils, numeric
 //! assembly through precomputed value slots, DOF reduction for anchored vertices, and a sparse
-//! Cholesky wrapper (faer) that factorises the pattern symbolically once, and Baraff–Witkin's
+//! Cholesky wrapper (faer) that factorises the pattern symbolically once, its variant for a 3-vector
+//! per unknown of a scalar matrix ([`VectorCholesky`]), and Baraff–Witkin's
 //! filtered PCG for constrained particle systems ([`filtered_pcg`]); hot loops compiled for the CPU's
 //! best instruction set ([`isa`]) over per-particle vectors padded to four lanes ([`padded`]), and
 //! arithmetic that one formula writes for a number and for SIMD lanes alike ([`real`]).
@@ -18,8 +19,10 @@ pub mod matrix_market;
 pub mod ordering;
 pub mod padded;
 pub mod real;
+mod vector_cholesky;
 
 pub use assembly::BlockAssembler;
 pub use cholesky::SparseCholesky;
 pub use dofs::DofMap;
 pub use error::LinalgError;
+pub use vector_cholesky::VectorCholesky;

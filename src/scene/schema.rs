@@ -393,7 +393,7 @@ pub struct SolverSettings {
     /// Rayleigh stiffness damping β, s.
     #[serde(default)]
     pub rayleigh_beta: f64,
-    /// Iteration cap of the method's inner solve (Newton, PCG, constraint sweeps).
+    /// Iteration cap of the method's inner solve (Newton, PCG).
     #[serde(default = "default_iterations")]
     pub iterations: usize,
     /// Relative tolerance of the inner solve.
@@ -406,6 +406,9 @@ pub struct SolverSettings {
     /// default 1e-2 if absent). Smaller follows drags and tracks more tightly.
     #[serde(default)]
     pub constraint_damping: Option<f64>,
+    /// Position-based methods: Gauss–Seidel sweeps over the constraints per substep.
+    #[serde(default = "default_sweeps")]
+    pub sweeps: usize,
     /// Position-based methods: substeps per step (`xpbd`; `pbd` takes one).
     #[serde(default = "default_substeps")]
     pub substeps: usize,
@@ -420,6 +423,9 @@ pub struct SolverSettings {
 
 fn default_substeps() -> usize {
     10
+}
+fn default_sweeps() -> usize {
+    2
 }
 
 /// A uniform wind with optional gusts (`[wind]`), acting on every method's triangles as aerodynamic

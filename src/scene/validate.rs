@@ -200,6 +200,7 @@ impl Scene {
         non_negative("solver.rayleigh_alpha", s.rayleigh_alpha)?;
         non_negative("solver.rayleigh_beta", s.rayleigh_beta)?;
         at_least("solver.iterations", s.iterations, 1)?;
+        at_least("solver.sweeps", s.sweeps, 1)?;
         positive("solver.tolerance", s.tolerance)?;
         if let Some(m) = s.margin {
             positive("solver.margin", m)?;

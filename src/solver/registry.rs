@@ -18,6 +18,7 @@ pub struct Method {
 /// Every method, in the order the UI lists them.
 pub const METHODS: &[Method] = &[
     modal::method::MWTS,
+    modal::method::MWTS_RS,
     modal::method::LMA,
     ds_implicit::METHOD,
     ds_static::METHOD,

@@ -10,7 +10,9 @@
 //!   shells (which have no orientation drags) by position drags on the rigidly turned tip row;
 //!   reference `ds-static` walked through the same turn in 10° steps.
 //! - `drape`: the 961-particle `drape`, 1 s of simulated time (the cloth has reached the ball and
-//!   folds); reference `cloth` at h = 1/1600 s and PCG tolerance 1e-5.
+//!   folds); reference `cloth` at h = 1/1600 s and PCG tolerance 1e-5. Beside the implicit cloth, XPBD
+//!   with the same stiffnesses (substeps and sweeps) and PBD with its own per-sweep stiffness
+//!   fractions (sweeps): their error mixes the numerical error with the difference of their models.
 
 use std::path::Path;
 
@@ -113,6 +115,27 @@ fn points(quick: bool) -> Vec<Point> {
         let overrides = vec![format!("solver.step={h}"), format!("solver.tolerance={tol}")];
         v.push(Point { family: "drape", method: "cloth", setting: format!("h={h}_tol={tol}"), overrides });
     }
+    // XPBD with the cloth's stiffnesses (compliances 1/k_s and from k_b): substeps × sweeps per step.
+    let xpbd: &[(f64, usize, usize)] = if quick {
+        &[(0.01, 10, 2)]
+    } else {
+        &[(0.01, 1, 10), (0.01, 5, 2), (0.01, 10, 1), (0.01, 10, 2), (0.01, 20, 1), (1.0 / 60.0, 10, 2)]
+    };
+    for (h, n, it) in xpbd {
+        let overrides =
+            vec![format!("solver.step={h}"), format!("solver.substeps={n}"), format!("solver.sweeps={it}")];
+        v.push(Point { family: "drape", method: "xpbd", setting: format!("h={h:.4}_n={n}_it={it}"), overrides });
+    }
+    // PBD as Müller et al.: one step of 1/60 s, stiffness fractions per sweep (its scene's), sweeps.
+    let pbd: &[usize] = if quick { &[20] } else { &[5, 20, 80] };
+    for it in pbd {
+        let overrides = ["solver.step=0.0166666666666667", "material.pbd_stretch=1.0", "material.pbd_bend=0.05"]
+            .map(String::from)
+            .into_iter()
+            .chain([format!("solver.sweeps={it}")])
+            .collect();
+        v.push(Point { family: "drape", method: "pbd", setting: format!("it={it}"), overrides });
+    }
     v
 }
 
@@ -182,7 +205,9 @@ impl Experiment for Pareto {
                     tip row turned 90° about its axis over 0.5 s and held, run to rest — modal methods by orientation \
                     drags, discrete shells by position drags on the turned tip row; reference `ds-static` walked \
                     through the turn in 10° steps. `drape`: the 961-particle drape after 1 s; reference `cloth` at \
-                    h = 1/1600 s, PCG tolerance 1e-5. A point is on the front when no other point of its family is \
+                    h = 1/1600 s, PCG tolerance 1e-5; `xpbd` with the same stiffnesses (its edges also resist \
+                    compression, the cloth's buckle), `pbd` with per-sweep stiffness fractions, so their error \
+                    includes the difference of models. A point is on the front when no other point of its family is \
                     both cheaper and more accurate. Points whose reference did not converge are not plotted."
                 .into(),
             ..Section::default()

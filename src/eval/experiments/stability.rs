@@ -9,7 +9,12 @@
 //! magnitude per few steps), on a log grid of substeps; the boundary between the largest stable and
 //! the smallest diverged substep is then narrowed by bisection and compared with the method's own
 //! estimate `2/ω_max`. Cloth runs the `drape` (`drape-quad` for `cloth-quad`; stretch, buckling
-//! stiffness and its linear branch scaled) for 1 s, compared with the same method at h = 1 ms.
+//! stiffness and its linear branch scaled) for 1 s, compared with the same method at h = 1 ms. The
+//! position-based methods run with their own inner settings, not the cloth's PCG cap of 200 as
+//! Gauss–Seidel sweeps (which made one `xpbd` reference 2·10⁶ sweeps): `pbd` its `pbd-drape` (20
+//! sweeps a step; its stiffnesses are fractions per sweep, at most 1, so it has no multiplier and one
+//! row of cells), `xpbd` the drape with [`XPBD_SUBSTEPS`] substeps of [`XPBD_SWEEPS`] sweeps as in its
+//! scenes (compliances `1/k_s` and the hinge's from `k_b`, scaled).
 
 use std::path::Path;
 
@@ -52,6 +57,12 @@ const QUICK_STEPS: [f64; 3] = [0.01, 1.0 / 30.0, 0.1];
 const EXPLICIT_SUBSTEPS: u64 = 2000;
 const EXPLICIT_FRAME: u64 = 100;
 
+/// `xpbd`'s substeps per step and Gauss–Seidel sweeps per substep here, as in its scenes (`flag`,
+/// `pile`, `push`).
+pub const XPBD_SUBSTEPS: usize = 10;
+/// See [`XPBD_SUBSTEPS`].
+pub const XPBD_SWEEPS: usize = 2;
+
 /// Which methods, on which scene family.
 fn methods() -> Vec<(&'static str, bool)> {
     let shells = ["lma", "mwts", "mwts-rs", "ds-implicit", "ds"].map(|m| (m, true));
@@ -80,7 +91,9 @@ impl Experiment for Stability {
 
     fn cases(&self, quick: bool) -> Vec<String> {
         let stiffness: &[f64] = if quick { &[1.0, 1000.0] } else { &STIFFNESS };
-        methods().iter().flat_map(|(m, _)| stiffness.iter().map(move |s| format!("{m}/stiffness={s}"))).collect()
+        // `pbd`'s stiffnesses are fractions per sweep: no multiplier (module documentation).
+        let rows = |m: &str| if m == "pbd" { &stiffness[..1] } else { stiffness };
+        methods().iter().flat_map(|(m, _)| rows(m).iter().map(move |s| format!("{m}/stiffness={s}"))).collect()
     }
 
     fn run(&self, case: &str, quick: bool, _out: &Path, progress: &dyn Fn(f32)) -> Result<Table, EvalError> {
@@ -162,11 +175,14 @@ impl Experiment for Stability {
                  Rayleigh α critical for its lowest mode, run to rest (at most 3000 steps) and compared with `ds-static` \
                  at the same stiffness. `ds` (explicit): 2000 substeps per cell on a log grid, the boundary then \
                  narrowed by bisection, beside the method's own estimate 2/ω_max at rest. Cloth: the drape (on \
-                 Choi & Ko's grid for `cloth-quad`) with k_s, c_b and k_b × 1 to × 1000, 1 s, compared with the same method at h = 1 ms. Diverged: \
+                 Choi & Ko's grid for `cloth-quad`) with k_s, c_b and k_b × 1 to × 1000, 1 s, compared with the same method at h = 1 ms; \
+                 `pbd` on its own `pbd-drape` (20 sweeps a step; its stiffnesses are fractions per sweep, so × 1 only), \
+                 `xpbd` with {XPBD_SUBSTEPS} substeps of {XPBD_SWEEPS} sweeps (as its scenes). Diverged: \
                  the solver reported divergence (non-finite state or exploding energy); inaccurate: error above \
                  {ERROR_THRESHOLD} or (shells) area change above {AREA_THRESHOLD}. Conditionally stable methods: \
                  `ds` (symplectic Euler); the others integrate implicitly (`ds-implicit`: backward Euler with \
-                 Newton; `lma`, `mwts`: per-mode implicit Euler; `cloth`: linearised backward Euler)."
+                 Newton; `lma`, `mwts`: per-mode implicit Euler; `mwts-rs`: linearly implicit Euler with the load \
+                 stiffness; `cloth`: linearised backward Euler) or project positions (`pbd`, `xpbd`)."
             ),
             ..Section::default()
         };
@@ -353,19 +369,28 @@ fn explicit(stiffness: f64, substep: f64) -> Result<CellRun, EvalError> {
     Ok(classify(run, f64::NAN, area, false, limit))
 }
 
-/// The cloth scene a method runs: the drape, on Choi & Ko's grid for `cloth-quad`.
+/// The cloth scene a method runs: the drape, on Choi & Ko's grid for `cloth-quad`, `pbd`'s own.
 fn cloth_scene(method: &str) -> &'static str {
-    if method == "cloth-quad" { "drape-quad" } else { "drape" }
+    match method {
+        "cloth-quad" => "drape-quad",
+        "pbd" => "pbd-drape",
+        _ => "drape",
+    }
 }
 
-fn cloth_overrides(scene: &str, stiffness: f64) -> Result<Vec<String>, EvalError> {
-    let base = measure::setup(scene, "cloth", &[])?;
+/// The scaled stiffnesses, and `xpbd`'s inner settings (module documentation).
+fn cloth_overrides(method: &str, stiffness: f64) -> Result<Vec<String>, EvalError> {
+    let base = measure::setup(cloth_scene(method), "cloth", &[])?;
     let m = &base.scene.material;
-    Ok(vec![
+    let mut over = vec![
         format!("material.k_s={}", m.k_s * stiffness),
         format!("material.c_b={}", m.c_b * stiffness),
         format!("material.k_b={}", m.k_b * stiffness),
-    ])
+    ];
+    if method == "xpbd" {
+        over.extend([format!("solver.substeps={XPBD_SUBSTEPS}"), format!("solver.sweeps={XPBD_SWEEPS}")]);
+    }
+    Ok(over)
 }
 
 const CLOTH_TIME: f64 = 1.0;
@@ -373,7 +398,7 @@ const CLOTH_REFERENCE_STEP: f64 = 0.001;
 
 fn cloth_run(method: &str, stiffness: f64, h: f64) -> Result<(Run, Vec<glam::DVec3>), EvalError> {
     let scene = cloth_scene(method);
-    let mut over = cloth_overrides(scene, stiffness)?;
+    let mut over = cloth_overrides(method, stiffness)?;
     over.push(format!("solver.step={h}"));
     let s = measure::setup(scene, method, &over)?;
     let rest = s.mesh.positions().to_vec();

@@ -1,4 +1,5 @@
-//! One fixed step of linear modal analysis (LMA) or modal warping (MWTS), with drag constraints.
+//! One fixed step of linear modal analysis (LMA), modal warping (MWTS) or its rotation-strain
+//! reconstruction (MWTS-RS), with drag constraints.
 //!
 //! Each mode is a damped oscillator `q̈ + (α + βλ) q̇ + λ q = g` advanced by implicit Euler,
 //! `v⁺ = (v + h(g − λq)) / (1 + hc + h²λ)`, `q⁺ = q + h v⁺`, unconditionally stable at 1/30 s.
@@ -6,13 +7,21 @@
 //! - LMA: `g = Φᵀ f`, `u_i = Φ_i q`.
 //! - MWTS: `g = Φᵀ R̃ᵀ f` with `R_i = exp([Ψ_i q]×)`, and `u_i = (∫₀¹ exp(s[w_i]×) ds) Φ_i q`,
 //!   the path-independent closed form: `q = 0` is exactly the rest shape, whatever happened before.
+//! - MWTS-RS: `x(q)` reconstructed from the triangles' rotations and strains and `g = J(q)ᵀ f`
+//!   ([`super::rotation_strain`]), linearly implicit: `g(q⁺) ≈ g + H (q⁺ − q)` with the load
+//!   stiffness `H = ∂g/∂q`, so the step solves `S v⁺ = v + h(g − λq)`, `S = I + hC + h²(Λ − H)`
+//!   (a small dense SPD system; if `S` is not positive definite the step falls back to `H = 0`).
 //!
 //! Drag constraints act on the reduced system. With `D = diag(h² / (1 + hc + h²λ))` the step's
-//! response to a modal force, a constraint force `Jᵀμ` moves `q⁺ = q̂ + D Jᵀ μ`. Position
+//! response to a modal force (`h² S⁻¹` for MWTS-RS), a constraint force `Jᵀμ` moves
+//! `q⁺ = q̂ + D Jᵀ μ`. Position
 //! constraints `X_i + u_i(q) = p*` are linearised about the current rotations
-//! (`J = B(w_i) Φ_i`, with `B` the warp operator, or `Φ_i` for LMA); orientation constraints
-//! `Ψ_i q = w*` are linear. The multipliers solve the damped least-squares system
-//! `(J D Jᵀ + ε I) μ = t − J q̂` with `ε = damping · trace(J D Jᵀ) / rows` — equivalently, each drag
+//! (`J = B(w_i) Φ_i`, with `B` the warp operator, or `Φ_i` for LMA; for MWTS-RS about the current
+//! `q`, `u_i(q + δ) ≈ u_i(q) + J_i δ` with the reconstruction's exact Jacobian rows, recomputed once
+//! a triangle has turned by [`super::rotation_strain::ROWS_TURN`]); orientation
+//! constraints `Ψ_i q = w*` are linear. Writing each linearised constraint as `o + J q = t` (the
+//! offset `o = u_i(q) − J_i q` is zero except for MWTS-RS), the multipliers solve the damped
+//! least-squares system `(J D Jᵀ + ε I) μ = t − o − J q̂` with `ε = damping · trace(J D Jᵀ) / rows` — equivalently, each drag
 //! is a stiff implicit spring of compliance `ε`. With the default `damping = 1e-2` a reachable target
 //! is met to about 1%, and an unreachable one (a drag that over-determines the few modes) settles at
 //! the closest compromise instead of thrashing: re-linearising `B` every step with a hard constraint
@@ -23,8 +32,9 @@ use nalgebra::{DMatrix, DVector};
 
 use super::basis::ModalBasis;
 use super::kernel::{ChunkedVectors, VertexPass};
+use super::rotation_strain::RotationStrain;
 use super::warp::warp_operator;
-use crate::solver::{DragKind, DragSet};
+use crate::solver::{Drag, DragKind, DragSet};
 
 /// Time-stepping parameters of the modal oscillators.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -39,8 +49,19 @@ pub struct ModalParams {
     pub constraint_damping: f64,
 }
 
+/// How the modal coordinates become positions, and the external forces a modal force.
+#[derive(Debug)]
+pub enum Shape {
+    /// LMA: `x = X + Φq`, `g = Φᵀ f`.
+    Linear,
+    /// MWTS: the closed-form warp of each vertex, `g = Φᵀ R̃ᵀ f`.
+    Warp,
+    /// MWTS-RS: the global reconstruction from triangle rotations and strains, `g = J(q)ᵀ f`.
+    RotationStrain(Box<RotationStrain>),
+}
+
 /// The state of a modal simulation and the per-vertex data one step needs.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct ModalDynamics {
     /// The basis.
     pub basis: ModalBasis,
@@ -48,8 +69,8 @@ pub struct ModalDynamics {
     pub q: Vec<f64>,
     /// Modal velocities.
     pub v: Vec<f64>,
-    /// Whether to warp (MWTS) or not (LMA).
-    pub warp: bool,
+    /// LMA, MWTS or MWTS-RS.
+    pub shape: Shape,
     rest: Vec<DVec3>,
     /// Rest positions for the per-vertex pass.
     rest_chunks: ChunkedVectors,
@@ -62,21 +83,22 @@ pub struct ModalDynamics {
 }
 
 impl ModalDynamics {
-    /// Start at rest, under per-vertex external `forces` (missing trailing vertices get none).
-    pub fn new(basis: ModalBasis, rest: Vec<DVec3>, forces: Vec<DVec3>, warp: bool) -> Self {
+    /// Start at rest, under per-vertex external `forces` (missing trailing vertices get none). A
+    /// [`Shape::RotationStrain`] must have been built for `basis`.
+    pub fn new(basis: ModalBasis, rest: Vec<DVec3>, forces: Vec<DVec3>, shape: Shape) -> Self {
         let m = basis.modes();
         let mut dynamics = Self {
             basis,
             q: vec![0.0; m],
             v: vec![0.0; m],
-            warp,
+            shape,
             positions: rest.clone(),
             rest_chunks: ChunkedVectors::new(&rest, rest.len()),
-            forces: ChunkedVectors::new(&forces, rest.len()),
+            forces: ChunkedVectors::new(&[], rest.len()),
             rest,
             force: vec![0.0; m],
         };
-        dynamics.update_positions();
+        dynamics.set_forces(forces);
         dynamics
     }
 
@@ -88,13 +110,20 @@ impl ModalDynamics {
     /// Replace the external forces (after a gravity or density change; missing vertices get none).
     pub fn set_forces(&mut self, forces: Vec<DVec3>) {
         self.forces = ChunkedVectors::new(&forces, self.rest.len());
+        if let Shape::RotationStrain(rs) = &mut self.shape {
+            rs.set_forces(&forces);
+        }
         self.update_positions();
     }
 
     /// Replace the external forces from the end of the coming step on (its positions update projects
-    /// them onto the modes), without recomputing anything now: for forces that follow the motion.
+    /// them onto the modes), without recomputing the positions now: for forces that follow the
+    /// motion. MWTS-RS takes them as its loads at once (their adjoint is one solve).
     pub fn hold_forces(&mut self, forces: &[DVec3]) {
         self.forces = ChunkedVectors::new(forces, self.rest.len());
+        if let Shape::RotationStrain(rs) = &mut self.shape {
+            rs.set_forces(forces);
+        }
     }
 
     /// Swap in a new basis, carrying the state over by projecting the current displacement and
@@ -106,6 +135,9 @@ impl ModalDynamics {
         self.q = basis.project(masses, &u);
         self.v = basis.project(masses, &du);
         self.force = vec![0.0; basis.modes()];
+        if let Shape::RotationStrain(rs) = &mut self.shape {
+            rs.set_basis(&basis);
+        }
         self.basis = basis;
         self.update_positions();
     }
@@ -124,63 +156,72 @@ impl ModalDynamics {
     /// Advance one step under the drag constraints.
     pub fn step(&mut self, p: &ModalParams, drags: &DragSet) {
         let h = p.step;
-        let g = &self.force;
         let m = self.basis.modes();
-        let mut d = vec![0.0; m];
-        let mut q_hat = vec![0.0; m];
-        let mut v_hat = vec![0.0; m];
-        for j in 0..m {
-            let l = self.basis.eigenvalues[j];
-            let c = p.alpha + p.beta * l;
-            let den = 1.0 + h * c + h * h * l;
-            v_hat[j] = (self.v[j] + h * (g[j] - l * self.q[j])) / den;
-            q_hat[j] = self.q[j] + h * v_hat[j];
-            d[j] = h * h / den;
-        }
+        let implicit: Vec<f64> =
+            (self.basis.eigenvalues.iter()).map(|&l| 1.0 + h * (p.alpha + p.beta * l) + h * h * l).collect();
+        let rhs: Vec<f64> =
+            (0..m).map(|j| self.v[j] + h * (self.force[j] - self.basis.eigenvalues[j] * self.q[j])).collect();
+        // v̂ = S⁻¹ rhs, and the step's response D = h² S⁻¹ to a modal force.
+        let stiffness = match &self.shape {
+            Shape::RotationStrain(rs) => rs.stiffness(),
+            _ => None,
+        };
+        let diagonal = DMatrix::from_diagonal(&DVector::from_column_slice(&implicit));
+        let (mut v_hat, d): (Vec<f64>, _) = match stiffness.and_then(|hs| (diagonal - hs * (h * h)).cholesky()) {
+            Some(s) => (s.solve(&DVector::from_column_slice(&rhs)).iter().copied().collect(), s.inverse() * (h * h)),
+            None => (
+                rhs.iter().zip(&implicit).map(|(r, d)| r / d).collect(),
+                DMatrix::from_diagonal(&DVector::from_iterator(m, implicit.iter().map(|d| h * h / d))),
+            ),
+        };
+        let mut q_hat: Vec<f64> = self.q.iter().zip(&v_hat).map(|(q, v)| q + h * v).collect();
         if !drags.is_empty() {
             let correction = self.constraint_correction(&q_hat, &d, drags, p.constraint_damping);
             for j in 0..m {
                 q_hat[j] += correction[j];
                 v_hat[j] += correction[j] / h;
             }
+            let pulled = drags.iter().any(|(_, d)| matches!(d.kind, DragKind::Position(_)));
+            if let (Shape::RotationStrain(rs), true) = (&mut self.shape, pulled) {
+                let motion: Vec<f64> = q_hat.iter().zip(&self.q).map(|(a, b)| a - b).collect();
+                let trust = rs.drag_trust(&motion);
+                for j in 0..m {
+                    (q_hat[j], v_hat[j]) = (self.q[j] + trust * motion[j], trust * motion[j] / h);
+                }
+            }
         }
-        self.q = q_hat;
+        let (q_old, g_old) = (std::mem::replace(&mut self.q, q_hat), self.force.clone());
         self.v = v_hat;
         self.update_positions();
+        if let Shape::RotationStrain(rs) = &mut self.shape {
+            let dq: Vec<f64> = self.q.iter().zip(&q_old).map(|(a, b)| a - b).collect();
+            let dg: Vec<f64> = self.force.iter().zip(&g_old).map(|(a, b)| a - b).collect();
+            rs.after_step(&dq, &dg, &implicit, h);
+        }
     }
 
     /// `D Jᵀ μ` for the damped least-squares multipliers of the drag constraints.
-    fn constraint_correction(&self, q_hat: &[f64], d: &[f64], drags: &DragSet, damping: f64) -> Vec<f64> {
+    fn constraint_correction(&mut self, q_hat: &[f64], d: &DMatrix<f64>, drags: &DragSet, damping: f64) -> Vec<f64> {
         let m = self.basis.modes();
         let rows = 3 * drags.len();
         let mut jac = DMatrix::<f64>::zeros(rows, m);
         let mut rhs = DVector::<f64>::zeros(rows);
+        if let Shape::RotationStrain(rs) = &mut self.shape {
+            let dragged =
+                |v: usize| drags.iter().any(|(_, d)| d.vertex == v && matches!(d.kind, DragKind::Position(_)));
+            rs.keep_drags(dragged);
+        }
         for (k, (_, drag)) in drags.iter().enumerate() {
-            let i = drag.vertex;
-            let block = |entry: &dyn Fn(usize, usize) -> f64, map: DMat3, jac: &mut DMatrix<f64>| {
-                for a in 0..3 {
-                    for j in 0..m {
-                        jac[(3 * k + a, j)] = (0..3).map(|b| map.col(b)[a] * entry(b, j)).sum();
-                    }
-                }
-            };
-            let phi = |b: usize, j: usize| self.basis.phi(i, b, j);
-            let psi = |b: usize, j: usize| self.basis.psi(i, b, j);
-            let (target, map, data): (DVec3, DMat3, &dyn Fn(usize, usize) -> f64) = match drag.kind {
-                DragKind::Position(p) => {
-                    let map = if self.warp { warp_operator(self.basis.rotation(i, &self.q)) } else { DMat3::IDENTITY };
-                    (p - self.rest[i], map, &phi)
-                }
-                DragKind::Orientation(w) => (w, DMat3::IDENTITY, &psi),
-            };
-            block(data, map, &mut jac);
+            let (block, target, offset) = self.linearisation(drag);
             for a in 0..3 {
+                for j in 0..m {
+                    jac[(3 * k + a, j)] = block[a * m + j];
+                }
                 let jq: f64 = (0..m).map(|j| jac[(3 * k + a, j)] * q_hat[j]).sum();
-                rhs[3 * k + a] = target[a] - jq;
+                rhs[3 * k + a] = target[a] - offset[a] - jq;
             }
         }
-        let dmat = DMatrix::from_diagonal(&DVector::from_column_slice(d));
-        let jd = &jac * &dmat;
+        let jd = &jac * d;
         let mut s = &jd * jac.transpose();
         let eps = damping * s.trace().max(f64::MIN_POSITIVE) / rows as f64;
         for r in 0..rows {
@@ -192,19 +233,46 @@ impl ModalDynamics {
         }
     }
 
+    /// A drag's constraint linearised at the current `q`, `o + J q = t`: the rows of `J` (x, y, z, each
+    /// `m` long), the target `t` and the offset `o`.
+    fn linearisation(&mut self, drag: &Drag) -> (Vec<f64>, DVec3, DVec3) {
+        let (i, m) = (drag.vertex, self.basis.modes());
+        let rows_of = |map: DMat3, entry: &dyn Fn(usize, usize) -> f64| -> Vec<f64> {
+            (0..3 * m).map(|r| (0..3).map(|b| map.col(b)[r / m] * entry(b, r % m)).sum()).collect()
+        };
+        match (drag.kind, &mut self.shape) {
+            (DragKind::Orientation(w), _) => {
+                (rows_of(DMat3::IDENTITY, &|b, j| self.basis.psi(i, b, j)), w, DVec3::ZERO)
+            }
+            (DragKind::Position(p), Shape::RotationStrain(rs)) => {
+                let rows = rs.position_rows(i, &self.q, &mut self.positions, &mut self.force);
+                let jq = DVec3::from_array([0, 1, 2].map(|a| (0..m).map(|j| rows[a * m + j] * self.q[j]).sum::<f64>()));
+                (rows, p - self.rest[i], self.positions[i] - self.rest[i] - jq)
+            }
+            (DragKind::Position(p), shape) => {
+                let warped = matches!(shape, Shape::Warp);
+                let map = if warped { warp_operator(self.basis.rotation(i, &self.q)) } else { DMat3::IDENTITY };
+                (rows_of(map, &|b, j| self.basis.phi(i, b, j)), p - self.rest[i], DVec3::ZERO)
+            }
+        }
+    }
+
     /// Recompute the positions from `q`, and with them the modal force at the new rotations, in one
     /// pass over the vertices ([`VertexPass`]): the whole per-vertex cost of a step.
     fn update_positions(&mut self) {
-        VertexPass {
-            basis: &self.basis,
-            q: &self.q,
-            rest: &self.rest_chunks,
-            forces: &self.forces,
-            warp: self.warp,
-            positions: &mut self.positions,
-            force: &mut self.force,
+        match &mut self.shape {
+            Shape::RotationStrain(rs) => rs.update(&self.q, &mut self.positions, &mut self.force),
+            shape => VertexPass {
+                basis: &self.basis,
+                q: &self.q,
+                rest: &self.rest_chunks,
+                forces: &self.forces,
+                warp: matches!(shape, Shape::Warp),
+                positions: &mut self.positions,
+                force: &mut self.force,
+            }
+            .run(),
         }
-        .run();
     }
 }
 
@@ -232,7 +300,7 @@ mod tests {
         shapes[1].iter_mut().for_each(|x| *x /= n1);
         let basis = ModalBasis::new(&mesh, vec![4.0, 30.0], &shapes);
         let forces = masses.iter().map(|m| DVec3::new(0.0, -9.81 * m, 0.0)).collect();
-        (ModalDynamics::new(basis, mesh.positions().to_vec(), forces, true), masses)
+        (ModalDynamics::new(basis, mesh.positions().to_vec(), forces, Shape::Warp), masses)
     }
 
     const P: ModalParams = ModalParams { step: 1.0 / 30.0, alpha: 0.5, beta: 0.0, constraint_damping: 1e-9 };
@@ -240,7 +308,7 @@ mod tests {
     #[test]
     fn lma_settles_at_the_static_modal_solution() {
         let (mut dynamics, _) = strip();
-        dynamics.warp = false;
+        dynamics.shape = Shape::Linear;
         let g = dynamics.force.clone();
         for _ in 0..2000 {
             dynamics.step(&P, &DragSet::default());
@@ -279,7 +347,7 @@ mod tests {
         dynamics.q = vec![std::f64::consts::FRAC_PI_2 / w_tip, 0.0];
         dynamics.update_positions();
         let warped = length(&dynamics);
-        dynamics.warp = false;
+        dynamics.shape = Shape::Linear;
         dynamics.update_positions();
         let linear = length(&dynamics);
         assert!((warped - 1.0).abs() < 0.6 * (linear - 1.0).abs(), "MWTS {warped} vs LMA {linear}");
@@ -288,7 +356,7 @@ mod tests {
     #[test]
     fn feasible_position_drag_is_met_and_infeasible_one_stays_finite() {
         let (mut dynamics, _) = strip();
-        dynamics.warp = false;
+        dynamics.shape = Shape::Linear;
         let rest = dynamics.positions().to_vec();
         let mut drags = DragSet::new(rest.len(), true);
         let target = rest[61] + DVec3::new(0.0, 0.2, 0.0);

@@ -120,7 +120,7 @@ impl pulp::WithSimd for VertexPass<'_> {
 /// the series with as many terms as the group's largest angle needs, the closed form for any vertex
 /// at or past `π` (see [`super::warp::coefficients`]).
 #[inline(always)]
-fn coefficients<S: Simd>(simd: S, w: &[S::f64s; 3]) -> [S::f64s; 3] {
+pub(super) fn coefficients<S: Simd>(simd: S, w: &[S::f64s; 3]) -> [S::f64s; 3] {
     let t = simd.mul_add_e_f64s(w[0], w[0], simd.mul_add_e_f64s(w[1], w[1], simd.mul_f64s(w[2], w[2])));
     let top = simd.reduce_max_f64s(t);
     let n = series_terms(top);
@@ -150,7 +150,7 @@ fn coefficients<S: Simd>(simd: S, w: &[S::f64s; 3]) -> [S::f64s; 3] {
 /// `v + s (w × v) + t (w × (w × v))`, lane-wise: the warp `(∫₀¹ exp(s[w]×) ds) v` for `s = b`,
 /// `t = c`, and `Rᵀ v` for `s = −a`, `t = b`.
 #[inline(always)]
-fn rodrigues<S: Simd>(simd: S, w: &[S::f64s; 3], v: &[S::f64s; 3], s: S::f64s, t: S::f64s) -> [S::f64s; 3] {
+pub(super) fn rodrigues<S: Simd>(simd: S, w: &[S::f64s; 3], v: &[S::f64s; 3], s: S::f64s, t: S::f64s) -> [S::f64s; 3] {
     let wv = cross(simd, w, v);
     let wwv = cross(simd, w, &wv);
     std::array::from_fn(|i| simd.mul_add_e_f64s(s, wv[i], simd.mul_add_e_f64s(t, wwv[i], v[i])))
@@ -158,7 +158,7 @@ fn rodrigues<S: Simd>(simd: S, w: &[S::f64s; 3], v: &[S::f64s; 3], s: S::f64s, t
 
 /// Lane-wise cross product.
 #[inline(always)]
-fn cross<S: Simd>(simd: S, a: &[S::f64s; 3], b: &[S::f64s; 3]) -> [S::f64s; 3] {
+pub(super) fn cross<S: Simd>(simd: S, a: &[S::f64s; 3], b: &[S::f64s; 3]) -> [S::f64s; 3] {
     let c = |i: usize, j: usize| simd.mul_add_e_f64s(a[i], b[j], simd.neg_f64s(simd.mul_f64s(a[j], b[i])));
     [c(1, 2), c(2, 0), c(0, 1)]
 }

@@ -1,4 +1,5 @@
-//! `lma` and `mwts` behind the [`Solver`] trait: one implementation, the flag `warp` tells them apart.
+//! `lma`, `mwts` and `mwts-rs` behind the [`Solver`] trait: one implementation, a [`Variant`] tells
+//! them apart (how the modal coordinates become positions, [`Shape`]).
 //!
 //! Stiffness, density and mode-count changes recompute the modes on a background thread; the step
 //! loop keeps running on the old basis meanwhile and swaps the new one in when it is ready, carrying
@@ -13,9 +14,11 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 
+use super::basis::ModalBasis;
 use super::cache::Cache;
 use super::compute::{ModalAnalysis, ModalProblem, analyse};
-use super::dynamics::{ModalDynamics, ModalParams};
+use super::dynamics::{ModalDynamics, ModalParams, Shape};
+use super::rotation_strain::RotationStrain;
 use super::supersede::{Generation, unless_superseded};
 use crate::energy::ShellStiffness;
 use crate::mesh::TriMesh;
@@ -28,15 +31,54 @@ use crate::solver::{DragSet, ParamSpec, ParamValue, Progress, Solver, SolverErro
 pub const LMA: Method = Method {
     name: "lma",
     summary: "linear modal analysis: x = X + Φq, fast, but large rotations inflate the shell",
-    build: |setup| Ok(Box::new(ModalSolver::new(setup, false)?)),
+    build: |setup| Ok(Box::new(ModalSolver::new(setup, Variant::Lma)?)),
 };
 
 /// Registry entry: modal warping for thin shells.
 pub const MWTS: Method = Method {
     name: "mwts",
     summary: "modal warping for thin shells: modal rotations warp the linear modes (1/30 s steps)",
-    build: |setup| Ok(Box::new(ModalSolver::new(setup, true)?)),
+    build: |setup| Ok(Box::new(ModalSolver::new(setup, Variant::Mwts)?)),
 };
+
+/// Registry entry: modal warping's modes with the rotation-strain reconstruction.
+pub const MWTS_RS: Method = Method {
+    name: "mwts-rs",
+    summary: "mwts's modes, positions solved globally from triangle rotations and strains, consistent forces: \
+              accurate far into large bends (1/30 s steps)",
+    build: |setup| Ok(Box::new(ModalSolver::new(setup, Variant::MwtsRs)?)),
+};
+
+/// Which modal method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variant {
+    /// `lma`: linear modal analysis.
+    Lma,
+    /// `mwts`: modal warping.
+    Mwts,
+    /// `mwts-rs`: modal warping's modes with the rotation-strain reconstruction.
+    MwtsRs,
+}
+
+impl Variant {
+    /// The registry name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Variant::Lma => LMA.name,
+            Variant::Mwts => MWTS.name,
+            Variant::MwtsRs => MWTS_RS.name,
+        }
+    }
+
+    /// The shape of this variant for a mesh, its anchors and a basis.
+    fn shape(self, mesh: &TriMesh, anchors: &[usize], basis: &ModalBasis) -> Result<Shape, SolverError> {
+        Ok(match self {
+            Variant::Lma => Shape::Linear,
+            Variant::Mwts => Shape::Warp,
+            Variant::MwtsRs => Shape::RotationStrain(Box::new(RotationStrain::new(mesh, anchors, basis)?)),
+        })
+    }
+}
 
 const fn spec(
     name: &'static str,
@@ -127,7 +169,7 @@ impl Request {
     }
 }
 
-/// The modal solver (LMA or MWTS).
+/// The modal solver (LMA, MWTS or MWTS-RS).
 pub struct ModalSolver {
     method: &'static str,
     request: Request,
@@ -153,12 +195,12 @@ const SETTLE: Duration = Duration::from_millis(200);
 impl ModalSolver {
     /// Build from a scene (computing or loading the modes synchronously), caching analyses in the
     /// default location ([`Cache::from_env`]).
-    pub fn new(setup: &Setup, warp: bool) -> Result<Self, SolverError> {
-        Self::with_cache(setup, warp, Cache::from_env())
+    pub fn new(setup: &Setup, variant: Variant) -> Result<Self, SolverError> {
+        Self::with_cache(setup, variant, Cache::from_env())
     }
 
     /// Build from a scene, caching analyses in `cache`.
-    pub fn with_cache(setup: &Setup, warp: bool, cache: Cache) -> Result<Self, SolverError> {
+    pub fn with_cache(setup: &Setup, variant: Variant, cache: Cache) -> Result<Self, SolverError> {
         let m = &setup.scene.material;
         let s = &setup.scene.solver;
         let request = Request {
@@ -171,8 +213,9 @@ impl ModalSolver {
             modes: s.modes,
             keep_rigid: setup.anchors.is_empty() && !setup.tracks.is_empty(),
         };
-        let method = if warp { MWTS.name } else { LMA.name };
+        let method = variant.name();
         let analysis = request.run(&|_| {}).map_err(|e| named(e, method))?;
+        let shape = variant.shape(&setup.mesh, &setup.anchors, &analysis.basis)?;
         let params = ModalParams {
             step: PARAMS[8].check(s.step.unwrap_or(1.0 / 30.0))?,
             alpha: s.rayleigh_alpha,
@@ -181,7 +224,7 @@ impl ModalSolver {
         };
         let mut solver = Self {
             method,
-            dynamics: ModalDynamics::new(analysis.basis.clone(), setup.mesh.positions().to_vec(), Vec::new(), warp),
+            dynamics: ModalDynamics::new(analysis.basis.clone(), setup.mesh.positions().to_vec(), Vec::new(), shape),
             request,
             loads: setup.loads.clone(),
             gravity: setup.gravity(),

@@ -1,11 +1,15 @@
-//! Modal methods for shells: linear modal analysis (LMA) and modal warping (MWTS).
+//! Modal methods for shells: linear modal analysis (LMA), modal warping (MWTS) and modal warping's
+//! modes with a rotation-strain reconstruction (MWTS-RS).
 
 pub mod basis;
 pub mod cache;
 pub mod compute;
 pub mod dynamics;
 pub mod kernel;
+pub mod laplacian;
 pub mod method;
 pub mod rotation;
+pub mod rotation_strain;
+pub mod rs_pass;
 pub mod supersede;
 pub mod warp;

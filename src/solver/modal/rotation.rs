@@ -21,15 +21,19 @@ use crate::mesh::TriMesh;
 /// `w_t = Σ_k J_k u_k` (see the module documentation). The triangle must not be degenerate (meshes
 /// reject those at load time).
 pub fn triangle_jacobian(x: [DVec3; 3]) -> [DMat3; 3] {
+    let (unit, gradients) = barycentric_gradients(x);
+    gradients.map(|g| outer(unit, unit) * cross_matrix(g) * 0.5 - cross_matrix(unit) * outer(g, unit))
+}
+
+/// A triangle's unit normal and the gradients `g_k` (in its plane) of its three barycentric
+/// coordinates: a linear field `u(x) = Σ_k N_k(x) u_k` has the gradient `Σ_k u_k g_kᵀ`. The triangle
+/// must not be degenerate.
+pub fn barycentric_gradients(x: [DVec3; 3]) -> (DVec3, [DVec3; 3]) {
     let n = (x[1] - x[0]).cross(x[2] - x[0]);
     let twice_area_sq = n.length_squared();
-    let unit = n / twice_area_sq.sqrt();
     // Barycentric gradient of vertex k: n × (edge opposite k, oriented k+1 → k+2) / |n|².
     let gradient = |k: usize| n.cross(x[(k + 2) % 3] - x[(k + 1) % 3]) / twice_area_sq;
-    [0, 1, 2].map(|k| {
-        let g = gradient(k);
-        outer(unit, unit) * cross_matrix(g) * 0.5 - cross_matrix(unit) * outer(g, unit)
-    })
+    (n / twice_area_sq.sqrt(), [0, 1, 2].map(gradient))
 }
 
 /// The linear map from vertex displacements to vertex rotation vectors (`w = W u`): each vertex takes

@@ -4,7 +4,7 @@
 //! One step of `h` is `n` substeps of `h/n` (`pbd`: one). A substep: velocities take the external
 //! forces (gravity, point loads, wind), positions are predicted `p = x + h v`; the colliders move
 //! (scripted ones to their pose, dynamic ones by their velocity and gravity); contacts and
-//! self-collision pairs are found; then `iterations` Gauss–Seidel sweeps project every constraint in a
+//! self-collision pairs are found; then `sweeps` Gauss–Seidel sweeps project every constraint in a
 //! fixed order — stretch per edge, bending per hinge, the balloon's volume, contacts with bodies (and
 //! small bodies against the cloth's triangles), self-collision — and finally `v = (p − x)/h`, `x = p`,
 //! and damping; friction acts with each contact push.
@@ -14,7 +14,7 @@
 //!   iteration count and the step, as the source warns (shown in the tests, not hidden).
 //! - `xpbd` replaces `k` by a compliance `α` (inverse stiffness) with `α̃ = α/h²` and a multiplier `λ`
 //!   per constraint, `Δλ = (−C − α̃λ)/(Σ w|∇C|² + α̃)`, `Δp_i = w_i ∇_i C Δλ`, so its stiffness is the
-//!   physical one whatever the iterations and substeps: `α = 1/k_s` for the edges (the cloth's
+//!   physical one whatever the sweeps and substeps: `α = 1/k_s` for the edges (the cloth's
 //!   springs; unlike them, XPBD's edges resist compression too) and `1/(k_b · 6|ē|²/(Ā₁ + Ā₂))` per
 //!   hinge (the discrete shell's hinge energy with `k_b` as its stiffness), unless the scene gives
 //!   compliances.
@@ -84,7 +84,7 @@ const COMMON: [ParamSpec; 9] = [
     spec("step", "time step", "s", "One step of the simulation (split into substeps).", 1e-5, 0.1),
     ParamSpec {
         integer: true,
-        ..spec("iterations", "iterations", "", "Gauss–Seidel sweeps over the constraints per substep.", 1.0, 1000.0)
+        ..spec("sweeps", "sweeps", "", "Gauss–Seidel sweeps over the constraints per substep.", 1.0, 1000.0)
     },
     ParamSpec {
         log_scale: true,
@@ -132,7 +132,7 @@ const PBD_PARAMS: [ParamSpec; 2] = [
 const XPBD_PARAMS: [ParamSpec; 3] = [
     ParamSpec {
         integer: true,
-        ..spec("substeps", "substeps", "", "Substeps per step (small substeps beat iterations).", 1.0, 1000.0)
+        ..spec("substeps", "substeps", "", "Substeps per step (small substeps beat more sweeps).", 1.0, 1000.0)
     },
     ParamSpec {
         log_scale: true,
@@ -161,7 +161,7 @@ pub struct Pbd {
     drags: DragSet,
     // Parameters.
     step: f64,
-    iterations: usize,
+    sweeps: usize,
     substeps: usize,
     density: f64,
     gravity: DVec3,
@@ -229,7 +229,7 @@ impl Pbd {
             wind: Wind::new(&setup.scene.wind),
             drags: DragSet::new(n, false),
             step: check("step", s.step.unwrap_or(1.0 / 60.0))?,
-            iterations: check("iterations", s.iterations as f64)? as usize,
+            sweeps: check("sweeps", s.sweeps as f64)? as usize,
             substeps: if variant == Variant::Pbd { 1 } else { check("substeps", s.substeps as f64)? as usize },
             density: check("density", m.density)?,
             gravity: setup.gravity(),
@@ -305,9 +305,9 @@ impl Pbd {
         self.lambda_edges.fill(0.0);
         self.lambda_bends.fill(0.0);
         let (alpha_stretch, alpha_bend) = self.compliances();
-        let sweeps = self.iterations as f64;
+        let sweeps = self.sweeps as f64;
         let correction = |k: f64| 1.0 - (1.0 - k).powf(1.0 / sweeps);
-        for _ in 0..self.iterations {
+        for _ in 0..self.sweeps {
             let (p, w, m) = (&mut self.p, &self.w, &self.model);
             let (edges, bends) = (&mut self.lambda_edges, &mut self.lambda_bends);
             match self.variant {
@@ -526,7 +526,7 @@ impl Solver for Pbd {
             sim_time: self.time,
             energy,
             residual: strain,
-            iterations: (self.iterations * self.substeps) as u32,
+            iterations: (self.sweeps * self.substeps) as u32,
             ..StepStats::default()
         })
     }
@@ -549,7 +549,7 @@ impl Solver for Pbd {
             .map(|spec| {
                 let value = match spec.name {
                     "step" => self.step,
-                    "iterations" => self.iterations as f64,
+                    "sweeps" => self.sweeps as f64,
                     "density" => self.density,
                     "gravity_y" => self.gravity.y,
                     "damping" => self.damping,
@@ -577,7 +577,7 @@ impl Solver for Pbd {
         let value = ParamSpec::find(self.method_name(), &all, name)?.check(value)?;
         match name {
             "step" => self.step = value,
-            "iterations" => self.iterations = value as usize,
+            "sweeps" => self.sweeps = value as usize,
             "density" => self.density = value,
             "gravity_y" => self.gravity.y = value,
             "damping" => self.damping = value,

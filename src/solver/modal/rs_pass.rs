@@ -1,0 +1,413 @@
+//! The per-triangle pass of `mwts-rs` ([`super::rotation_strain`]): from the modal coordinates `q`,
+//! each triangle's rotation `ω_t = W_t q` and in-plane strain `ε_t = E_t q`, the right side of the
+//! reconstruction, the generalised force through the adjoint, and the position drags' Jacobian rows.
+//!
+//! Per triangle, at rest: an orthonormal frame `(t₁, t₂)` of its plane and, for each corner `k`, the
+//! in-plane vector `p_k = A_t (2X_k − X_{k−1} − X_{k+1})` in that frame, `s_k = (t₁·p_k, t₂·p_k)`.
+//! Summing the three edges' terms of `b` per corner, the triangle adds `(M_t − I) p_k` to corner `k`
+//! with `M_t = R_t (I + ε_t)`, `R_t = exp([ω_t]×)`. With `σ_k = (I + ε) s_k` (2×2 strain in the frame)
+//! and `r_a = R t_a`: `M p_k = r₁ σ_k1 + r₂ σ_k2`, evaluated as `(r₁ − t₁) σ_k1 + (r₂ − t₂) σ_k2 +
+//! t₁ (εs_k)₁ + t₂ (εs_k)₂` (with `r_a − t_a = a ω × t_a + b ω × (ω × t_a)`, the Rodrigues
+//! coefficients of [`super::warp`]) so that `q = 0` adds exactly zero.
+//!
+//! **Adjoint.** For `y = L⁻¹ f` ([`super::laplacian`]) the work `yᵀb` is `Σ_t s_t` with
+//! `s_t = Σ_k y_k · M p_k = r₁·A₁ + r₂·A₂`, `A₁ = (1 + ε₁₁) Y₁ + ε₁₂ Y₂`, `A₂ = ε₁₂ Y₁ + (1 + ε₂₂) Y₂`,
+//! where `Y_a = Σ_k s_ka y_k` are the triangle's load moments (constant while the loads are). So
+//! `∂s/∂ε₁₁ = r₁·Y₁`, `∂s/∂ε₂₂ = r₂·Y₂`, `∂s/∂ε₁₂ = r₁·Y₂ + r₂·Y₁`, and since
+//! `d exp([ω]×) = [J_l(ω) dω]× exp([ω]×)` with the left Jacobian `J_l(ω) = ∫₀¹ exp(s[ω]×) ds` (the
+//! warp operator), `∂s/∂ω = J_lᵀ (r₁ × A₁ + r₂ × A₂)`. The generalised force is
+//! `Σ_t W_tᵀ ∂s/∂ω + E_tᵀ ∂s/∂ε`. A position drag's rows (`f = e_i ⊗ e_a`) take the scalar field
+//! `z = L⁻¹ e_i` with moments `c = Σ_k z_k s_k`: for axis `a`, `∂s/∂ω = J_lᵀ (v × e_a)` with
+//! `v = r₁ σ₁ + r₂ σ₂`, `σ = (I + ε) c`, and `∂s/∂ε = (r₁ₐ c₁, r₂ₐ c₂, r₁ₐ c₂ + r₂ₐ c₁)`.
+//!
+//! Triangles go [`LANES`] at a time, every quantity a SIMD vector across them (compiled for the CPU's
+//! best instruction set, as in [`super::kernel`]); only the scatter of `b` is per triangle.
+
+use glam::DVec3;
+use pulp::Simd;
+
+use super::basis::{LANES, ModalBasis, chunks};
+use super::kernel::{coefficients, cross, rodrigues};
+use super::laplacian::NONE;
+use super::rotation::{barycentric_gradients, triangle_jacobian};
+use crate::linalg::padded::Padded;
+
+/// One value per triangle of a chunk.
+type Lanes = [f64; LANES];
+
+/// A chunk of triangles' load moments `[Y₁, Y₂]` (module documentation), x, y, z each.
+pub type Moments = [[Lanes; 3]; 2];
+
+/// A chunk of triangles at rest.
+#[derive(Debug, Clone, PartialEq)]
+struct Chunk {
+    vertices: [[usize; LANES]; 3],
+    /// Each corner's unknown in the reconstruction's system, or [`NONE`] (also for padding lanes).
+    unknowns: [[u32; LANES]; 3],
+    /// `t₁` (x, y, z) then `t₂`.
+    frame: [Lanes; 6],
+    /// `s_k` per corner: `s₀₁, s₀₂, s₁₁, …`.
+    s: [Lanes; 6],
+}
+
+/// The per-triangle rest data and modal rows of a mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrianglePass {
+    chunks: Vec<Chunk>,
+    triangles: usize,
+    modes: usize,
+    /// Per chunk, `6m` rows: `W_t` (x, y, z) then `E_t` (ε₁₁, ε₂₂, ε₁₂), mode by mode.
+    rows: Vec<Lanes>,
+}
+
+/// The Jacobian rows of one vertex's position, and the adjoint moments that give them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DragRows {
+    /// The vertex.
+    pub vertex: usize,
+    /// Per chunk: `c = Σ_k z_k s_k` for `z = L⁻¹ e_vertex`.
+    moments: Vec<[[Lanes; 1]; 2]>,
+    /// `∂x_vertex/∂q` without the gauge's centroid term: 3 rows (x, y, z) of `m`.
+    pub rows: Vec<f64>,
+}
+
+impl TrianglePass {
+    /// The triangles with a free corner (`unknowns` from the reconstruction's system; the others
+    /// never move), with the modal rows of `basis`.
+    pub fn new(rest: &[DVec3], triangles: &[[usize; 3]], unknowns: &[u32], basis: &ModalBasis) -> Self {
+        let moving: Vec<[usize; 3]> =
+            triangles.iter().filter(|t| t.iter().any(|&v| unknowns[v] != NONE)).copied().collect();
+        let empty = Chunk {
+            vertices: [[0; LANES]; 3],
+            unknowns: [[NONE; LANES]; 3],
+            frame: [[0.0; LANES]; 6],
+            s: [[0.0; LANES]; 6],
+        };
+        let mut chunked = vec![empty; chunks(moving.len())];
+        for (i, t) in moving.iter().enumerate() {
+            let (chunk, lane) = (&mut chunked[i / LANES], i % LANES);
+            let [a, b, c] = t.map(|v| rest[v]);
+            let normal = (b - a).cross(c - a);
+            let t1 = (b - a).normalize();
+            let frame = [t1, normal.normalize().cross(t1)];
+            let area = 0.5 * normal.length();
+            for k in 0..3 {
+                (chunk.vertices[k][lane], chunk.unknowns[k][lane]) = (t[k], unknowns[t[k]]);
+                let p = (rest[t[k]] * 2.0 - rest[t[(k + 2) % 3]] - rest[t[(k + 1) % 3]]) * area;
+                (chunk.s[2 * k][lane], chunk.s[2 * k + 1][lane]) = (frame[0].dot(p), frame[1].dot(p));
+                (chunk.frame[k][lane], chunk.frame[3 + k][lane]) = (frame[0][k], frame[1][k]);
+            }
+        }
+        let mut pass = Self { chunks: chunked, triangles: moving.len(), modes: 0, rows: Vec::new() };
+        pass.set_basis(rest, basis);
+        pass
+    }
+
+    /// Recompute the modal rows for a new basis.
+    pub fn set_basis(&mut self, rest: &[DVec3], basis: &ModalBasis) {
+        let m = basis.modes();
+        self.modes = m;
+        self.rows = vec![[0.0; LANES]; 6 * m * self.chunks.len()];
+        for (c, chunk) in self.chunks.iter().enumerate() {
+            for lane in (0..LANES).filter(|&l| c * LANES + l < self.triangles) {
+                let corners = [0, 1, 2].map(|k| chunk.vertices[k][lane]);
+                let x = corners.map(|v| rest[v]);
+                let jacobian = triangle_jacobian(x);
+                let (_, gradients) = barycentric_gradients(x);
+                let t = [0, 3]
+                    .map(|o| DVec3::new(chunk.frame[o][lane], chunk.frame[o + 1][lane], chunk.frame[o + 2][lane]));
+                for j in 0..m {
+                    let phi = corners.map(|v| DVec3::new(basis.phi(v, 0, j), basis.phi(v, 1, j), basis.phi(v, 2, j)));
+                    let omega: DVec3 = (0..3).map(|k| jacobian[k] * phi[k]).sum();
+                    // t_aᵀ F t_b with F = Σ_k φ_k g_kᵀ, symmetrised.
+                    let f = |a: DVec3, b: DVec3| (0..3).map(|k| a.dot(phi[k]) * gradients[k].dot(b)).sum::<f64>();
+                    let values = [
+                        omega.x,
+                        omega.y,
+                        omega.z,
+                        f(t[0], t[0]),
+                        f(t[1], t[1]),
+                        0.5 * (f(t[0], t[1]) + f(t[1], t[0])),
+                    ];
+                    for (r, value) in values.into_iter().enumerate() {
+                        self.rows[(c * 6 + r) * m + j][lane] = value;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Number of triangles in the pass.
+    pub fn len(&self) -> usize {
+        self.triangles
+    }
+
+    /// Whether no triangle moves.
+    pub fn is_empty(&self) -> bool {
+        self.triangles == 0
+    }
+
+    /// Per chunk, the moments `Σ_k s_k y_k` of a per-vertex adjoint field `y` (vector or scalar).
+    fn weighted<const R: usize>(&self, value: impl Fn(usize) -> [f64; R]) -> Vec<[[Lanes; R]; 2]> {
+        (self.chunks.iter())
+            .map(|chunk| {
+                let mut out = [[[0.0; LANES]; R]; 2];
+                for (lane, k) in (0..LANES).flat_map(|l| (0..3).map(move |k| (l, k))) {
+                    let y = value(chunk.vertices[k][lane]);
+                    for (a, out) in out.iter_mut().enumerate() {
+                        for (o, yr) in out.iter_mut().zip(y) {
+                            o[lane] += chunk.s[2 * k + a][lane] * yr;
+                        }
+                    }
+                }
+                out
+            })
+            .collect()
+    }
+
+    /// Per chunk, the load moments `Y_a = Σ_k s_ka y_k` of a per-vertex adjoint field `y`.
+    pub fn moments(&self, y: &[DVec3]) -> Vec<Moments> {
+        self.weighted(|v| y[v].to_array())
+    }
+
+    /// The Jacobian rows of `vertex`'s position for the scalar adjoint field `z = L⁻¹ e_vertex`
+    /// (filled by the next [`TrianglePass::run`]).
+    pub fn drag_rows(&self, vertex: usize, z: &[f64]) -> DragRows {
+        DragRows { vertex, moments: self.weighted(|v| [z[v]]), rows: vec![0.0; 3 * self.modes] }
+    }
+
+    /// Per mode: the largest triangle rotation a unit of it makes, `max_t |W_t e_j|`, rad.
+    pub fn rotation_scales(&self) -> Vec<f64> {
+        let m = self.modes;
+        (0..m)
+            .map(|j| {
+                (self.rows.chunks_exact(6 * m))
+                    .flat_map(|rows| (0..LANES).map(move |l| (0..3).map(|r| rows[r * m + j][l].powi(2)).sum::<f64>()))
+                    .fold(0.0, f64::max)
+                    .sqrt()
+            })
+            .collect()
+    }
+
+    /// One pass at `q`: the right side `rhs` of the reconstruction (one 3-vector per unknown; not
+    /// computed if `None`), the generalised force `force` of the loads with moments `loads` (without
+    /// the gauges' centroid terms), and the Jacobian rows of every drag in `drags`.
+    pub fn run(
+        &self,
+        q: &[f64],
+        loads: &[Moments],
+        rhs: Option<&mut [Padded]>,
+        force: &mut [f64],
+        drags: &mut [DragRows],
+    ) {
+        pulp::Arch::new().dispatch(Pass { pass: self, q, loads, rhs, force, drags });
+    }
+}
+
+/// The arguments of [`TrianglePass::run`], for the dispatch to the best instruction set.
+struct Pass<'a> {
+    pass: &'a TrianglePass,
+    q: &'a [f64],
+    loads: &'a [Moments],
+    rhs: Option<&'a mut [Padded]>,
+    force: &'a mut [f64],
+    drags: &'a mut [DragRows],
+}
+
+impl pulp::WithSimd for Pass<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, simd: S) {
+        let Self { pass, q, loads, mut rhs, force, drags } = self;
+        let m = pass.modes;
+        let groups = LANES / S::F64_LANES;
+        let zero = simd.splat_f64s(0.0);
+        let qs: Vec<S::f64s> = q.iter().map(|&x| simd.splat_f64s(x)).collect();
+        // Accumulators, one SIMD vector per group and mode: the force, then each drag's three rows.
+        let mut acc = vec![zero; m * groups * (1 + 3 * drags.len())];
+        if let Some(rhs) = rhs.as_deref_mut() {
+            rhs.fill(Padded::ZERO);
+        }
+        for (c, (chunk, load)) in pass.chunks.iter().zip(loads).enumerate() {
+            let rows = &pass.rows[c * 6 * m..(c + 1) * 6 * m];
+            let mut change = [[[0.0; LANES]; 3]; 3];
+            for g in 0..groups {
+                let t = Triangle::new(simd, rows, &qs, chunk, g);
+                for (k, out) in change.iter_mut().enumerate().filter(|_| rhs.is_some()) {
+                    let d = t.change(simd, [at::<S>(&chunk.s[2 * k], g), at::<S>(&chunk.s[2 * k + 1], g)]);
+                    for (lanes, di) in out.iter_mut().zip(d) {
+                        let di: &[f64] = bytemuck::cast_slice(std::slice::from_ref(&di));
+                        lanes[g * S::F64_LANES..(g + 1) * S::F64_LANES].copy_from_slice(di);
+                    }
+                }
+                let d = t.load_adjoint(simd, [vector::<S>(&load[0], g), vector::<S>(&load[1], g)]);
+                accumulate(simd, rows, g, d, &mut acc[g..m * groups]);
+                for (k, drag) in drags.iter().enumerate() {
+                    let moments = &drag.moments[c];
+                    let d = t.drag_adjoint(simd, [at::<S>(&moments[0][0], g), at::<S>(&moments[1][0], g)]);
+                    for (axis, d) in d.into_iter().enumerate() {
+                        let slot = (1 + 3 * k + axis) * m * groups;
+                        accumulate(simd, rows, g, d, &mut acc[slot + g..slot + m * groups]);
+                    }
+                }
+            }
+            if let Some(rhs) = rhs.as_deref_mut() {
+                for (k, out) in change.iter().enumerate() {
+                    for (lane, &u) in chunk.unknowns[k].iter().enumerate() {
+                        if let Some(b) = rhs.get_mut(u as usize) {
+                            *b += Padded::from(DVec3::new(out[0][lane], out[1][lane], out[2][lane]));
+                        }
+                    }
+                }
+            }
+        }
+        let sums: Vec<f64> =
+            acc.chunks_exact(groups).map(|v| v.iter().map(|&x| simd.reduce_sum_f64s(x)).sum()).collect();
+        force.copy_from_slice(&sums[..m]);
+        for (drag, rows) in drags.iter_mut().zip(sums[m..].chunks_exact(3 * m)) {
+            drag.rows.copy_from_slice(rows);
+        }
+    }
+}
+
+/// Lanes `g` of a chunk's row (no closures in the kernel: they would not be compiled for its
+/// instruction set).
+#[inline(always)]
+fn at<S: Simd>(row: &Lanes, g: usize) -> S::f64s {
+    S::as_simd_f64s(row).0[g]
+}
+
+/// Lanes `g` of three rows.
+#[inline(always)]
+fn vector<S: Simd>(rows: &[Lanes; 3], g: usize) -> [S::f64s; 3] {
+    [at::<S>(&rows[0], g), at::<S>(&rows[1], g), at::<S>(&rows[2], g)]
+}
+
+#[inline(always)]
+fn dot<S: Simd>(simd: S, u: &[S::f64s; 3], v: &[S::f64s; 3]) -> S::f64s {
+    simd.mul_add_e_f64s(u[0], v[0], simd.mul_add_e_f64s(u[1], v[1], simd.mul_f64s(u[2], v[2])))
+}
+
+/// `u a + v b` per component.
+#[inline(always)]
+fn combine<S: Simd>(simd: S, u: &[S::f64s; 3], a: S::f64s, v: &[S::f64s; 3], b: S::f64s) -> [S::f64s; 3] {
+    [
+        simd.mul_add_e_f64s(u[0], a, simd.mul_f64s(v[0], b)),
+        simd.mul_add_e_f64s(u[1], a, simd.mul_f64s(v[1], b)),
+        simd.mul_add_e_f64s(u[2], a, simd.mul_f64s(v[2], b)),
+    ]
+}
+
+#[inline(always)]
+fn add<S: Simd>(simd: S, u: &[S::f64s; 3], v: &[S::f64s; 3]) -> [S::f64s; 3] {
+    [simd.add_f64s(u[0], v[0]), simd.add_f64s(u[1], v[1]), simd.add_f64s(u[2], v[2])]
+}
+
+/// `a ω × t + b ω × (ω × t)`: `exp([ω]×) t − t` for the Rodrigues coefficients `a`, `b`.
+#[inline(always)]
+fn turn<S: Simd>(simd: S, omega: &[S::f64s; 3], t: &[S::f64s; 3], a: S::f64s, b: S::f64s) -> [S::f64s; 3] {
+    let wt = cross(simd, omega, t);
+    combine(simd, &wt, a, &cross(simd, omega, &wt), b)
+}
+
+/// `out[j] += Σ_r rows[r m + j] d_r` for the `m` modes of group `g` (`out` holds every `groups`-th
+/// accumulator from the group's first).
+#[inline(always)]
+fn accumulate<S: Simd>(simd: S, rows: &[Lanes], g: usize, d: [S::f64s; 6], out: &mut [S::f64s]) {
+    let m = rows.len() / 6;
+    let groups = LANES / S::F64_LANES;
+    for (j, s) in out.iter_mut().step_by(groups).enumerate() {
+        for (r, dr) in d.iter().enumerate() {
+            *s = simd.mul_add_e_f64s(at::<S>(&rows[r * m + j], g), *dr, *s);
+        }
+    }
+}
+
+/// A group of triangles at the current `q`: rotation, strain, frame and the turned frame.
+struct Triangle<S: Simd> {
+    omega: [S::f64s; 3],
+    /// `[(1 − cosθ)/θ², (θ − sinθ)/θ³]` (with `J_lᵀ v = v − b ω×v + c ω×(ω×v)`).
+    jacobian: [S::f64s; 2],
+    /// `(ε₁₁, ε₂₂, ε₁₂)`.
+    strain: [S::f64s; 3],
+    frame: [[S::f64s; 3]; 2],
+    /// `r_a − t_a`.
+    turned: [[S::f64s; 3]; 2],
+    /// `r_a`.
+    r: [[S::f64s; 3]; 2],
+}
+
+impl<S: Simd> Triangle<S> {
+    #[inline(always)]
+    fn new(simd: S, rows: &[Lanes], q: &[S::f64s], chunk: &Chunk, g: usize) -> Self {
+        let m = q.len();
+        let mut kin = [simd.splat_f64s(0.0); 6];
+        for (r, k) in kin.iter_mut().enumerate() {
+            for (row, &qj) in rows[r * m..(r + 1) * m].iter().zip(q) {
+                *k = simd.mul_add_e_f64s(at::<S>(row, g), qj, *k);
+            }
+        }
+        let omega = [kin[0], kin[1], kin[2]];
+        let [a, b, c] = coefficients(simd, &omega);
+        let frame = [
+            [at::<S>(&chunk.frame[0], g), at::<S>(&chunk.frame[1], g), at::<S>(&chunk.frame[2], g)],
+            [at::<S>(&chunk.frame[3], g), at::<S>(&chunk.frame[4], g), at::<S>(&chunk.frame[5], g)],
+        ];
+        let turned = [turn(simd, &omega, &frame[0], a, b), turn(simd, &omega, &frame[1], a, b)];
+        let r = [add(simd, &frame[0], &turned[0]), add(simd, &frame[1], &turned[1])];
+        Self { omega, jacobian: [simd.neg_f64s(b), c], strain: [kin[3], kin[4], kin[5]], frame, turned, r }
+    }
+
+    /// `(εs, (I + ε) s)` for in-plane coordinates `s`.
+    #[inline(always)]
+    fn stretch(&self, simd: S, s: [S::f64s; 2]) -> ([S::f64s; 2], [S::f64s; 2]) {
+        let [e11, e22, e12] = self.strain;
+        let es = [
+            simd.mul_add_e_f64s(e11, s[0], simd.mul_f64s(e12, s[1])),
+            simd.mul_add_e_f64s(e12, s[0], simd.mul_f64s(e22, s[1])),
+        ];
+        (es, [simd.add_f64s(s[0], es[0]), simd.add_f64s(s[1], es[1])])
+    }
+
+    /// `(M − I) p` of a corner with in-plane coordinates `s`.
+    #[inline(always)]
+    fn change(&self, simd: S, s: [S::f64s; 2]) -> [S::f64s; 3] {
+        let (es, sigma) = self.stretch(simd, s);
+        let turned = combine(simd, &self.turned[0], sigma[0], &self.turned[1], sigma[1]);
+        add(simd, &turned, &combine(simd, &self.frame[0], es[0], &self.frame[1], es[1]))
+    }
+
+    /// `(∂s/∂ω, ∂s/∂ε)` for the load moments `y = [Y₁, Y₂]`.
+    #[inline(always)]
+    fn load_adjoint(&self, simd: S, y: [[S::f64s; 3]; 2]) -> [S::f64s; 6] {
+        let [e11, e22, e12] = self.strain;
+        let one = simd.splat_f64s(1.0);
+        let a1 = combine(simd, &y[0], simd.add_f64s(one, e11), &y[1], e12);
+        let a2 = combine(simd, &y[0], e12, &y[1], simd.add_f64s(one, e22));
+        let sum = add(simd, &cross(simd, &self.r[0], &a1), &cross(simd, &self.r[1], &a2));
+        let d = rodrigues(simd, &self.omega, &sum, self.jacobian[0], self.jacobian[1]);
+        let [r1, r2] = &self.r;
+        let cross_terms = simd.add_f64s(dot(simd, r1, &y[1]), dot(simd, r2, &y[0]));
+        [d[0], d[1], d[2], dot(simd, r1, &y[0]), dot(simd, r2, &y[1]), cross_terms]
+    }
+
+    /// `(∂s/∂ω, ∂s/∂ε)` for a drag's moments `z`, for each axis.
+    #[inline(always)]
+    fn drag_adjoint(&self, simd: S, z: [S::f64s; 2]) -> [[S::f64s; 6]; 3] {
+        let (_, sigma) = self.stretch(simd, z);
+        let v = combine(simd, &self.r[0], sigma[0], &self.r[1], sigma[1]);
+        let zero = simd.splat_f64s(0.0);
+        let mut out = [[zero; 6]; 3];
+        for (axis, d) in out.iter_mut().enumerate() {
+            // v × e_axis.
+            let mut u = [zero; 3];
+            (u[(axis + 1) % 3], u[(axis + 2) % 3]) = (v[(axis + 2) % 3], simd.neg_f64s(v[(axis + 1) % 3]));
+            let w = rodrigues(simd, &self.omega, &u, self.jacobian[0], self.jacobian[1]);
+            let (r1, r2) = (self.r[0][axis], self.r[1][axis]);
+            let mixed = simd.mul_add_e_f64s(r1, z[1], simd.mul_f64s(r2, z[0]));
+            *d = [w[0], w[1], w[2], simd.mul_f64s(r1, z[0]), simd.mul_f64s(r2, z[1]), mixed];
+        }
+        out
+    }
+}
