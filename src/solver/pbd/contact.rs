@@ -41,19 +41,8 @@ pub struct SampleHit {
     pub side: f64,
 }
 
-/// Push particle `p` (inverse mass `w`, at `start` when the substep of `h` began) out of `body` to
-/// `thickness`, with Coulomb friction at the position level (Macklin et al. 2014): the particle's slip
-/// over the substep relative to the body's surface is undone while it is within `μ_s` times the
-/// normal correction, and shortened by `μ_k` times it otherwise. Returns the normal correction.
-pub fn push_particle(
-    p: &mut DVec3,
-    start: DVec3,
-    w: f64,
-    body: &mut Rigid,
-    thickness: f64,
-    h: f64,
-    mu: (f64, f64),
-) -> f64 {
+/// Push particle `p` (inverse mass `w`) out of `body` to `thickness`. Returns the normal correction.
+pub fn push_particle(p: &mut DVec3, w: f64, body: &mut Rigid, thickness: f64) -> f64 {
     let (d, n) = body.surface(*p);
     let c = d - thickness;
     if c >= 0.0 {
@@ -64,8 +53,18 @@ pub fn push_particle(
     let lambda = -c / (w + wb);
     *p += n * (w * lambda);
     body.apply_position_impulse(contact, -n * lambda);
-    let pushed = w * lambda;
-    // Friction: the slip relative to the body's material at the contact over the substep.
+    w * lambda
+}
+
+/// Coulomb friction at the position level (Macklin et al. 2014), once per substep of `h` after its
+/// sweeps, for particle `p` (inverse mass `w`, at `start` when the substep began) that `body` pushed
+/// by `pushed` in all over them: its slip over the substep relative to the body's surface is undone
+/// while within `μ_s · pushed`, and shortened by `μ_k · pushed` otherwise. (Per sweep, the budget
+/// would be the sweep's own push, which the sweeps after the first hardly give: a cloth would creep
+/// off a ball its friction holds.)
+pub fn rub_particle(p: &mut DVec3, start: DVec3, w: f64, body: &mut Rigid, pushed: f64, h: f64, mu: (f64, f64)) {
+    let (d, n) = body.surface(*p);
+    let contact = *p - n * d;
     let slip = (*p - start) - body.velocity_at(contact) * h;
     let tangential = slip - n * slip.dot(n);
     let length = tangential.length();
@@ -78,7 +77,6 @@ pub fn push_particle(
         *p -= t * (w * share);
         body.apply_position_impulse(contact, t * share);
     }
-    pushed
 }
 
 /// Keep a sphere body `radius + thickness` away from triangle `t` (vertex inverse masses `w`).

@@ -6,8 +6,9 @@
 //! (scripted ones to their pose, dynamic ones by their velocity and gravity); contacts and
 //! self-collision pairs are found; then `sweeps` Gauss–Seidel sweeps project every constraint in a
 //! fixed order — stretch per edge, bending per hinge, the balloon's volume, contacts with bodies (and
-//! small bodies against the cloth's triangles), self-collision — and finally `v = (p − x)/h`, `x = p`,
-//! and damping; friction acts with each contact push.
+//! small bodies against the cloth's triangles), self-collision — then friction against the bodies,
+//! once, with the normal pushes of all the sweeps as its budget; and finally `v = (p − x)/h`, `x = p`,
+//! and damping.
 //!
 //! - `pbd` projects `Δp_i = −k' w_i ∇_i C · C / Σ_j w_j |∇_j C|²` with the stiffness `k ∈ [0, 1]`
 //!   corrected for the iteration count, `k' = 1 − (1 − k)^(1/n)`: the result still depends on the
@@ -348,6 +349,11 @@ impl Pbd {
             }
             self.collide(h);
         }
+        for touch in self.touches.iter().filter(|t| t.pushed > 0.0) {
+            let i = touch.particle;
+            let body = &mut self.bodies[touch.body];
+            contact::rub_particle(&mut self.p[i], self.x[i], self.w[i], body, touch.pushed, h, self.mu);
+        }
         // The last word goes to self-collision: the cloth must not end the substep through itself.
         if let Some(sc) = &self.self_collision {
             sc.project(&mut self.p, &self.w, &self.model.triangles, self.thickness);
@@ -422,8 +428,7 @@ impl Pbd {
         for touch in &mut self.touches {
             let i = touch.particle;
             let body = &mut self.bodies[touch.body];
-            touch.pushed +=
-                contact::push_particle(&mut self.p[i], self.x[i], self.w[i], body, self.thickness, h, self.mu);
+            touch.pushed += contact::push_particle(&mut self.p[i], self.w[i], body, self.thickness);
         }
         for &(b, t) in &self.near {
             if let Shape::Sphere { radius } = self.bodies[b].body.shape {
