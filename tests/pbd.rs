@@ -38,11 +38,7 @@ fn sag(setup: &Setup, damping: f64, seconds: f64) -> f64 {
 #[test]
 fn xpbd_sag_does_not_depend_on_sweeps_or_substeps_and_pbd_sag_does() {
     let xpbd = |sweeps: usize, substeps: usize| {
-        sag(
-            &hammock("xpbd", &[&format!("solver.sweeps={sweeps}"), &format!("solver.substeps={substeps}")]),
-            5.0,
-            4.0,
-        )
+        sag(&hammock("xpbd", &[&format!("solver.sweeps={sweeps}"), &format!("solver.substeps={substeps}")]), 5.0, 4.0)
     };
     let (base, more_sweeps, smaller_steps) = (xpbd(4, 20), xpbd(8, 20), xpbd(4, 40));
     let pbd = |sweeps: usize| sag(&hammock("pbd", &[&format!("solver.sweeps={sweeps}")]), 5.0, 4.0);
@@ -56,11 +52,7 @@ fn xpbd_sag_does_not_depend_on_sweeps_or_substeps_and_pbd_sag_does() {
         1e3 * p2
     );
     let change = |a: f64, b: f64| (a - b).abs() / a;
-    assert!(
-        change(base, more_sweeps) < 0.05,
-        "sweeps changed the sag by {:.1}%",
-        100.0 * change(base, more_sweeps)
-    );
+    assert!(change(base, more_sweeps) < 0.05, "sweeps changed the sag by {:.1}%", 100.0 * change(base, more_sweeps));
     assert!(
         change(base, smaller_steps) < 0.05,
         "the substep changed the sag by {:.1}%",

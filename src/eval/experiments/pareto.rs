@@ -122,8 +122,7 @@ fn points(quick: bool) -> Vec<Point> {
         &[(0.01, 1, 10), (0.01, 5, 2), (0.01, 10, 1), (0.01, 10, 2), (0.01, 20, 1), (1.0 / 60.0, 10, 2)]
     };
     for (h, n, it) in xpbd {
-        let overrides =
-            vec![format!("solver.step={h}"), format!("solver.substeps={n}"), format!("solver.sweeps={it}")];
+        let overrides = vec![format!("solver.step={h}"), format!("solver.substeps={n}"), format!("solver.sweeps={it}")];
         v.push(Point { family: "drape", method: "xpbd", setting: format!("h={h:.4}_n={n}_it={it}"), overrides });
     }
     // PBD as Müller et al.: one step of 1/60 s, stiffness fractions per sweep (its scene's), sweeps.
