@@ -276,6 +276,32 @@ impl Pbd {
     }
 
     /// Compliance of the edges and of hinge `weight` (XPBD), ∞ meaning "no constraint".
+    /// A particle deeper inside a scripted collider than an edge is long has gone through it: the
+    /// substeps are too few for the speeds (a fine strip hitting the ground, say). The state stays
+    /// finite, so this is reported as the divergence it is instead of crumpling on.
+    fn check_penetration(&self) -> Result<(), SolverError> {
+        let depth = self.model.mean_edge;
+        for (b, body) in self.bodies.iter().enumerate().filter(|(_, b)| !b.is_dynamic()) {
+            let inside = (0..self.x.len()).filter(|&i| self.w[i] > 0.0).find_map(|i| {
+                let d = body.surface(self.x[i]).0;
+                (d < -depth).then_some((i, d))
+            });
+            if let Some((i, d)) = inside {
+                return Err(SolverError::Diverged {
+                    step: self.steps,
+                    time: self.time,
+                    reason: format!(
+                        "particle {i} is {:.1} mm inside collider {b}, more than an edge ({:.1} mm): too few \
+                         substeps for its speed",
+                        -1e3 * d,
+                        1e3 * depth
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
     fn compliances(&self) -> (f64, f64) {
         let stretch = self.compliance.0.unwrap_or(1.0 / self.k_s);
         let bend = self.compliance.1.unwrap_or(if self.k_b > 0.0 { 1.0 / self.k_b } else { f64::INFINITY });
@@ -520,6 +546,7 @@ impl Solver for Pbd {
         self.steps += 1;
         let energy = self.energy();
         check_finite(self.steps, self.time, &self.x, energy, self.energy_limit)?;
+        self.check_penetration()?;
         let strain = self
             .model
             .edges
