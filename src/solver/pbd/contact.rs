@@ -69,8 +69,7 @@ pub fn rub_particle(p: &mut DVec3, start: DVec3, w: f64, body: &mut Rigid, pushe
     let tangential = slip - n * slip.dot(n);
     let length = tangential.length();
     if length > 0.0 {
-        let (mu_s, mu_k) = mu;
-        let undo = if length <= mu_s * pushed { length } else { (mu_k * pushed).min(length) };
+        let undo = coulomb(length, pushed, mu);
         let t = tangential / length;
         let wt = body.inverse_mass_at(contact, t);
         let share = undo / (w + wt);
@@ -149,11 +148,16 @@ pub fn push_body(body: &mut Rigid, ground: &Rigid, h: f64, mu: (f64, f64)) {
         let tangential = slip - n * slip.dot(n);
         let length = tangential.length();
         if length > 0.0 {
-            let (mu_s, mu_k) = mu;
-            let undo = if length <= mu_s * -d { length } else { (mu_k * -d).min(length) };
+            let undo = coulomb(length, -d, mu);
             let t = tangential / length;
             let wt = body.inverse_mass_at(moved, t);
             body.apply_position_impulse(moved, -t * (undo / wt));
         }
     }
+}
+
+/// How much of a tangential slip of `length` Coulomb friction undoes for a normal push of `pushed`:
+/// all of it while within `μ_s · pushed` (sticking), else `μ_k · pushed` of it (sliding).
+fn coulomb(length: f64, pushed: f64, (mu_s, mu_k): (f64, f64)) -> f64 {
+    if length <= mu_s * pushed { length } else { (mu_k * pushed).min(length) }
 }
