@@ -125,7 +125,7 @@ pub struct Stop {
 /// constrained directions it is minus the constraint's impulse (updated alongside the filtered
 /// residual, so it costs no extra product with `A`).
 ///
-/// The iteration is compiled for the best instruction set of this CPU ([`super::isa`]), with the
+/// The iteration is compiled for AVX2 + FMA where the CPU has them ([`super::isa`]), with the
 /// operator inlined into it if its [`Operator::apply_padded`] is `#[inline(always)]`.
 pub fn solve<A: Operator>(
     a: &A,
@@ -136,7 +136,7 @@ pub fn solve<A: Operator>(
     stop: Stop,
     residual: &mut [DVec3],
 ) -> PcgReport {
-    super::isa::best(Iterate { a, p_inv, constraints, b, dv, stop, residual })
+    super::isa::avx2(Iterate { a, p_inv, constraints, b, dv, stop, residual })
 }
 
 /// The arguments of [`solve`], run as a [`super::isa::Kernel`].

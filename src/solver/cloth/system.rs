@@ -167,7 +167,7 @@ impl ClothSystem {
                 self.system.linearise_here(self.state, self.g, self.h, self.out);
             }
         }
-        isa::best(Linearise { system: self, state: (x, v), g, h, out: (rhs, preconditioner) });
+        isa::avx2(Linearise { system: self, state: (x, v), g, h, out: (rhs, preconditioner) });
     }
 
     /// Add external forces `f` (N per particle, held over a step of `h`) to a right side made by
@@ -236,7 +236,7 @@ impl ClothSystem {
                 self.0.measure_here(self.1)
             }
         }
-        isa::best(Measure(self, x))
+        isa::avx2(Measure(self, x))
     }
 
     /// [`Self::measure`], compiled for whatever instruction set its caller is.

@@ -6,9 +6,10 @@
 //! in-plane vector `p_k = A_t (2X_k − X_{k−1} − X_{k+1})` in that frame, `s_k = (t₁·p_k, t₂·p_k)`.
 //! Summing the three edges' terms of `b` per corner, the triangle adds `(M_t − I) p_k` to corner `k`
 //! with `M_t = R_t (I + ε_t)`, `R_t = exp([ω_t]×)`. With `σ_k = (I + ε) s_k` (2×2 strain in the frame)
-//! and `r_a = R t_a`: `M p_k = r₁ σ_k1 + r₂ σ_k2`, evaluated as `(r₁ − t₁) σ_k1 + (r₂ − t₂) σ_k2 +
-//! t₁ (εs_k)₁ + t₂ (εs_k)₂` (with `r_a − t_a = a ω × t_a + b ω × (ω × t_a)`, the Rodrigues
-//! coefficients of [`super::warp`]) so that `q = 0` adds exactly zero.
+//! and `r_a = R t_a`: `M p_k = r₁ σ_k1 + r₂ σ_k2`. The change is linear in `s_k`, `(M − I) p_k =
+//! s_k1 c₁ + s_k2 c₂` with the triangle's columns `c_a = (M − I) t_a`, evaluated as `c₁ = (r₁ − t₁) +
+//! ε₁₁ r₁ + ε₁₂ r₂`, `c₂ = (r₂ − t₂) + ε₁₂ r₁ + ε₂₂ r₂` (with `r_a − t_a = a ω × t_a + b ω × (ω × t_a)`,
+//! the Rodrigues coefficients of [`super::warp`]) so that `q = 0` adds exactly zero.
 //!
 //! **Adjoint.** For `y = L⁻¹ f` ([`super::laplacian`]) the work `yᵀb` is `Σ_t s_t` with
 //! `s_t = Σ_k y_k · M p_k = r₁·A₁ + r₂·A₂`, `A₁ = (1 + ε₁₁) Y₁ + ε₁₂ Y₂`, `A₂ = ε₁₂ Y₁ + (1 + ε₂₂) Y₂`,
@@ -38,10 +39,10 @@ type Lanes = [f64; LANES];
 /// A chunk of triangles' load moments `[Y₁, Y₂]` (module documentation), x, y, z each.
 pub type Moments = [[Lanes; 3]; 2];
 
-/// A chunk of triangles at rest.
+/// A chunk of triangles at rest: what the step's pass reads (their vertices are kept apart, in
+/// [`TrianglePass`], so that the pass streams no more than it uses).
 #[derive(Debug, Clone, PartialEq)]
 struct Chunk {
-    vertices: [[usize; LANES]; 3],
     /// Each corner's unknown in the reconstruction's system, or [`NONE`] (also for padding lanes).
     unknowns: [[u32; LANES]; 3],
     /// `t₁` (x, y, z) then `t₂`.
@@ -54,6 +55,8 @@ struct Chunk {
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrianglePass {
     chunks: Vec<Chunk>,
+    /// Per chunk, each corner's vertex (padding lanes: vertex 0).
+    corners: Vec<[[usize; LANES]; 3]>,
     triangles: usize,
     modes: usize,
     /// Per chunk, `6m` rows: `W_t` (x, y, z) then `E_t` (ε₁₁, ε₂₂, ε₁₂), mode by mode.
@@ -77,13 +80,9 @@ impl TrianglePass {
     pub fn new(rest: &[DVec3], triangles: &[[usize; 3]], unknowns: &[u32], basis: &ModalBasis) -> Self {
         let moving: Vec<[usize; 3]> =
             triangles.iter().filter(|t| t.iter().any(|&v| unknowns[v] != NONE)).copied().collect();
-        let empty = Chunk {
-            vertices: [[0; LANES]; 3],
-            unknowns: [[NONE; LANES]; 3],
-            frame: [[0.0; LANES]; 6],
-            s: [[0.0; LANES]; 6],
-        };
+        let empty = Chunk { unknowns: [[NONE; LANES]; 3], frame: [[0.0; LANES]; 6], s: [[0.0; LANES]; 6] };
         let mut chunked = vec![empty; chunks(moving.len())];
+        let mut corners = vec![[[0; LANES]; 3]; chunked.len()];
         for (i, t) in moving.iter().enumerate() {
             let (chunk, lane) = (&mut chunked[i / LANES], i % LANES);
             let [a, b, c] = t.map(|v| rest[v]);
@@ -92,13 +91,13 @@ impl TrianglePass {
             let frame = [t1, normal.normalize().cross(t1)];
             let area = 0.5 * normal.length();
             for k in 0..3 {
-                (chunk.vertices[k][lane], chunk.unknowns[k][lane]) = (t[k], unknowns[t[k]]);
+                (corners[i / LANES][k][lane], chunk.unknowns[k][lane]) = (t[k], unknowns[t[k]]);
                 let p = (rest[t[k]] * 2.0 - rest[t[(k + 2) % 3]] - rest[t[(k + 1) % 3]]) * area;
                 (chunk.s[2 * k][lane], chunk.s[2 * k + 1][lane]) = (frame[0].dot(p), frame[1].dot(p));
                 (chunk.frame[k][lane], chunk.frame[3 + k][lane]) = (frame[0][k], frame[1][k]);
             }
         }
-        let mut pass = Self { chunks: chunked, triangles: moving.len(), modes: 0, rows: Vec::new() };
+        let mut pass = Self { chunks: chunked, corners, triangles: moving.len(), modes: 0, rows: Vec::new() };
         pass.set_basis(rest, basis);
         pass
     }
@@ -108,9 +107,9 @@ impl TrianglePass {
         let m = basis.modes();
         self.modes = m;
         self.rows = vec![[0.0; LANES]; 6 * m * self.chunks.len()];
-        for (c, chunk) in self.chunks.iter().enumerate() {
+        for (c, (chunk, vertices)) in self.chunks.iter().zip(&self.corners).enumerate() {
             for lane in (0..LANES).filter(|&l| c * LANES + l < self.triangles) {
-                let corners = [0, 1, 2].map(|k| chunk.vertices[k][lane]);
+                let corners = [0, 1, 2].map(|k| vertices[k][lane]);
                 let x = corners.map(|v| rest[v]);
                 let jacobian = triangle_jacobian(x);
                 let (_, gradients) = barycentric_gradients(x);
@@ -149,11 +148,11 @@ impl TrianglePass {
 
     /// Per chunk, the moments `Σ_k s_k y_k` of a per-vertex adjoint field `y` (vector or scalar).
     fn weighted<const R: usize>(&self, value: impl Fn(usize) -> [f64; R]) -> Vec<[[Lanes; R]; 2]> {
-        (self.chunks.iter())
-            .map(|chunk| {
+        (self.chunks.iter().zip(&self.corners))
+            .map(|(chunk, vertices)| {
                 let mut out = [[[0.0; LANES]; R]; 2];
                 for (lane, k) in (0..LANES).flat_map(|l| (0..3).map(move |k| (l, k))) {
-                    let y = value(chunk.vertices[k][lane]);
+                    let y = value(vertices[k][lane]);
                     for (a, out) in out.iter_mut().enumerate() {
                         for (o, yr) in out.iter_mut().zip(y) {
                             o[lane] += chunk.s[2 * k + a][lane] * yr;
@@ -234,11 +233,15 @@ impl pulp::WithSimd for Pass<'_> {
             let mut change = [[[0.0; LANES]; 3]; 3];
             for g in 0..groups {
                 let t = Triangle::new(simd, rows, &qs, chunk, g);
-                for (k, out) in change.iter_mut().enumerate().filter(|_| rhs.is_some()) {
-                    let d = t.change(simd, [at::<S>(&chunk.s[2 * k], g), at::<S>(&chunk.s[2 * k + 1], g)]);
-                    for (lanes, di) in out.iter_mut().zip(d) {
-                        let di: &[f64] = bytemuck::cast_slice(std::slice::from_ref(&di));
-                        lanes[g * S::F64_LANES..(g + 1) * S::F64_LANES].copy_from_slice(di);
+                if rhs.is_some() {
+                    let columns = t.columns(simd);
+                    for (k, out) in change.iter_mut().enumerate() {
+                        let (s1, s2) = (at::<S>(&chunk.s[2 * k], g), at::<S>(&chunk.s[2 * k + 1], g));
+                        let d = combine(simd, &columns[0], s1, &columns[1], s2);
+                        for (lanes, di) in out.iter_mut().zip(d) {
+                            let di: &[f64] = bytemuck::cast_slice(std::slice::from_ref(&di));
+                            lanes[g * S::F64_LANES..(g + 1) * S::F64_LANES].copy_from_slice(di);
+                        }
                     }
                 }
                 let d = t.load_adjoint(simd, [vector::<S>(&load[0], g), vector::<S>(&load[1], g)]);
@@ -331,7 +334,6 @@ struct Triangle<S: Simd> {
     jacobian: [S::f64s; 2],
     /// `(ε₁₁, ε₂₂, ε₁₂)`.
     strain: [S::f64s; 3],
-    frame: [[S::f64s; 3]; 2],
     /// `r_a − t_a`.
     turned: [[S::f64s; 3]; 2],
     /// `r_a`.
@@ -356,26 +358,30 @@ impl<S: Simd> Triangle<S> {
         ];
         let turned = [turn(simd, &omega, &frame[0], a, b), turn(simd, &omega, &frame[1], a, b)];
         let r = [add(simd, &frame[0], &turned[0]), add(simd, &frame[1], &turned[1])];
-        Self { omega, jacobian: [simd.neg_f64s(b), c], strain: [kin[3], kin[4], kin[5]], frame, turned, r }
+        Self { omega, jacobian: [simd.neg_f64s(b), c], strain: [kin[3], kin[4], kin[5]], turned, r }
     }
 
-    /// `(εs, (I + ε) s)` for in-plane coordinates `s`.
+    /// `(I + ε) s` for in-plane coordinates `s`.
     #[inline(always)]
-    fn stretch(&self, simd: S, s: [S::f64s; 2]) -> ([S::f64s; 2], [S::f64s; 2]) {
+    fn stretch(&self, simd: S, s: [S::f64s; 2]) -> [S::f64s; 2] {
         let [e11, e22, e12] = self.strain;
-        let es = [
-            simd.mul_add_e_f64s(e11, s[0], simd.mul_f64s(e12, s[1])),
-            simd.mul_add_e_f64s(e12, s[0], simd.mul_f64s(e22, s[1])),
-        ];
-        (es, [simd.add_f64s(s[0], es[0]), simd.add_f64s(s[1], es[1])])
+        [
+            simd.mul_add_e_f64s(e11, s[0], simd.mul_add_e_f64s(e12, s[1], s[0])),
+            simd.mul_add_e_f64s(e12, s[0], simd.mul_add_e_f64s(e22, s[1], s[1])),
+        ]
     }
 
-    /// `(M − I) p` of a corner with in-plane coordinates `s`.
+    /// `c_a = (M − I) t_a`, so that a corner with in-plane coordinates `s` changes by
+    /// `(M − I) p = s₁ c₁ + s₂ c₂`: `c₁ = (r₁ − t₁) + ε₁₁ r₁ + ε₁₂ r₂`, `c₂ = (r₂ − t₂) + ε₁₂ r₁ + ε₂₂ r₂`
+    /// (exact zeros at `q = 0`).
     #[inline(always)]
-    fn change(&self, simd: S, s: [S::f64s; 2]) -> [S::f64s; 3] {
-        let (es, sigma) = self.stretch(simd, s);
-        let turned = combine(simd, &self.turned[0], sigma[0], &self.turned[1], sigma[1]);
-        add(simd, &turned, &combine(simd, &self.frame[0], es[0], &self.frame[1], es[1]))
+    fn columns(&self, simd: S) -> [[S::f64s; 3]; 2] {
+        let [e11, e22, e12] = self.strain;
+        let [r1, r2] = &self.r;
+        [
+            add(simd, &self.turned[0], &combine(simd, r1, e11, r2, e12)),
+            add(simd, &self.turned[1], &combine(simd, r1, e12, r2, e22)),
+        ]
     }
 
     /// `(∂s/∂ω, ∂s/∂ε)` for the load moments `y = [Y₁, Y₂]`.
@@ -395,7 +401,7 @@ impl<S: Simd> Triangle<S> {
     /// `(∂s/∂ω, ∂s/∂ε)` for a drag's moments `z`, for each axis.
     #[inline(always)]
     fn drag_adjoint(&self, simd: S, z: [S::f64s; 2]) -> [[S::f64s; 6]; 3] {
-        let (_, sigma) = self.stretch(simd, z);
+        let sigma = self.stretch(simd, z);
         let v = combine(simd, &self.r[0], sigma[0], &self.r[1], sigma[1]);
         let zero = simd.splat_f64s(0.0);
         let mut out = [[zero; 6]; 3];
