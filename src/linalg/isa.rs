@@ -1,8 +1,9 @@
 //! Hot loops compiled for the best instruction set of the CPU they run on.
 //!
 //! The crate is built for the baseline x86-64 (SSE2, no FMA) so that the binary runs anywhere; a
-//! [`Kernel`] run through [`avx2`] is compiled a second time for AVX2 + FMA and the version the CPU
-//! supports is chosen at run time by [`pulp`]. Only code inlined into the kernel gets
+//! [`Kernel`] run through [`avx2`] (or a `pulp::WithSimd` through [`avx2_lanes`]) is compiled a
+//! second time for AVX2 + FMA and the version the CPU supports is chosen at run time by [`pulp`];
+//! loops dispatched by `pulp::Arch` directly get AVX-512 where the CPU has it. Only code inlined into the kernel gets
 //! the wider instructions, so [`Kernel::run`] and the functions it calls are marked
 //! `#[inline(always)]` (a closure would not be inlined into the dispatched function). Results are
 //! unchanged: Rust never fuses or reorders floating-point operations on its own.
@@ -18,8 +19,7 @@ pub trait Kernel {
 /// Run `kernel` compiled for AVX2 + FMA where the CPU has them, else for the baseline. Not for
 /// AVX-512 even where the CPU has it: these kernels work on [`super::padded::Padded`] 3-vectors in
 /// four lanes, which gain nothing from wider registers, and the creature's reconstruction solve
-/// measured 7% slower compiled for AVX-512 (0.83 against 0.78 ms). Kernels generic over the lane
-/// count (`pulp::Simd`, eight values a chunk) are dispatched by `pulp::Arch` to the widest instead.
+/// measured 7% slower compiled for AVX-512 (0.83 against 0.78 ms).
 pub fn avx2<K: Kernel>(kernel: K) -> K::Output {
     struct Run<K>(K);
     impl<K: Kernel> pulp::WithSimd for Run<K> {
@@ -29,9 +29,18 @@ pub fn avx2<K: Kernel>(kernel: K) -> K::Output {
             self.0.run()
         }
     }
+    avx2_lanes(Run(kernel))
+}
+
+/// Run `op`, generic over the lane count, with AVX2 + FMA's four lanes where the CPU has them (else
+/// the best it has), for loops that measured slower on AVX-512: the position-based sweeps, whose
+/// constraints gather their particles lane by lane (the 961-particle drape, falling: 2.44–2.52 ms a
+/// frame on AVX-512 against 2.30–2.35 ms, the two run alternately). Loops that stream wide rows (the modal passes) are dispatched by
+/// `pulp::Arch` to the widest set instead.
+pub fn avx2_lanes<Op: pulp::WithSimd>(op: Op) -> Op::Output {
     #[cfg(target_arch = "x86_64")]
     if let Some(simd) = pulp::x86::V3::try_new() {
-        return pulp::Simd::vectorize(simd, Run(kernel));
+        return pulp::Simd::vectorize(simd, op);
     }
-    pulp::Arch::new().dispatch(Run(kernel))
+    pulp::Arch::new().dispatch(op)
 }

@@ -4,8 +4,8 @@
 //!
 //! Edges and hinges come in colours (no two of a colour share a particle, [`super::model`]), so the
 //! constraints of a colour are independent: projecting them one after another or all at once gives
-//! the same positions. The sweeps take them as many at a time as the CPU's vector registers hold
-//! (chosen at run time by [`pulp`]): gather their particles, evaluate the constraint functions — the
+//! the same positions. The sweeps take them four at a time where the CPU has AVX2
+//! ([`crate::linalg::isa::avx2_lanes`]; eight, on AVX-512, measured slower): gather their particles, evaluate the constraint functions — the
 //! same source the scalar ones are ([`Real`]) — on all lanes at once, scatter the corrections.
 
 use std::marker::PhantomData;
@@ -63,12 +63,12 @@ pub struct Sweep<'a, R> {
 
 /// Project every edge to its rest length; `colours` are where the edges' colours begin.
 pub fn stretch<R: Rule>(edges: &[Edge], colours: &[usize], sweep: Sweep<'_, R>) {
-    pulp::Arch::new().dispatch(Constraints::<_, _, 2> { items: edges, colours, sweep, particles: PhantomData });
+    crate::linalg::isa::avx2_lanes(Constraints::<_, _, 2> { items: edges, colours, sweep, particles: PhantomData });
 }
 
 /// Project every hinge to its rest angle; `colours` are where the hinges' colours begin.
 pub fn bend<R: Rule>(bends: &[Bend], colours: &[usize], sweep: Sweep<'_, R>) {
-    pulp::Arch::new().dispatch(Constraints::<_, _, 4> { items: bends, colours, sweep, particles: PhantomData });
+    crate::linalg::isa::avx2_lanes(Constraints::<_, _, 4> { items: bends, colours, sweep, particles: PhantomData });
 }
 
 /// A constraint over `K` particles.
