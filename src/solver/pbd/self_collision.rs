@@ -15,7 +15,8 @@
 //! Patches that are flat are not searched within, whatever the margins: the hierarchy skips a patch
 //! whose normals lie within 35° of one axis and whose smallest altitude keeps its vertices and edges
 //! more than the thickness plus the least margin apart (see [`crate::collision::bvh`]). Such a patch
-//! stays flat, and so holds no pair within that distance, while none of its triangles' normals has
+//! stays flat, and so holds no pair within that distance (a pair that acts, within the thickness and
+//! over its triangle or facing across its normal, is nearer), while none of its triangles' normals has
 //! turned by more than 10° since the search (its cone then stays within 45°); that is checked with
 //! the drift, and a triangle that turned further makes the search again. So the margins, which only
 //! widen the boxes, do not list every near neighbour of a moving sheet.
@@ -119,14 +120,9 @@ impl SelfCollision {
             self.search(x, triangles, thickness);
         }
         // Sides, and which pairs may touch within the substep: those whose separation along their
-        // normal is less than the reach — the thickness plus twice the farthest one side is predicted
-        // to move relative to the other (corrections move them too, by less) — and whose distance is
-        // less than twice the reach (a pair that acts is within the thickness along its normal and
-        // over its triangle or facing, at most the reach apart, at the end of the substep).
-        let relative = |a: &[usize], b: &[usize]| {
-            let moved = |i: usize| p[i] - x[i];
-            a.iter().flat_map(|&i| b.iter().map(move |&j| (moved(i) - moved(j)).length())).fold(0.0, f64::max)
-        };
+        // normal is less than the thickness plus twice the farthest their particles are predicted to
+        // move (corrections move them too, by less).
+        let travel = |ids: &[usize]| ids.iter().map(|&i| (p[i] - x[i]).length()).fold(0.0, f64::max);
         self.active.clear();
         for (k, pair) in self.pairs.iter_mut().enumerate() {
             let (v, t) = (pair.vertex as usize, triangles[pair.triangle as usize]);
@@ -136,12 +132,8 @@ impl SelfCollision {
             if !kept && d.is_finite() {
                 pair.side = if d >= 0.0 { 1.0 } else { -1.0 };
             }
-            let reach = thickness + 2.0 * relative(&[v], &t);
-            if pair.side * d < reach && {
-                let size = (tri[1] - tri[0]).length().max((tri[2] - tri[0]).length());
-                let on = closest::at(tri, closest_on_triangle(q, tri).0);
-                (q - on).length() < 2.0 * reach + 0.01 * size
-            } {
+            let reach = thickness + 2.0 * travel(&[v, t[0], t[1], t[2]]);
+            if pair.side * d < reach {
                 self.active.push(k as u32);
             }
         }
@@ -149,7 +141,7 @@ impl SelfCollision {
         for (k, pair) in self.edge_pairs.iter_mut().enumerate() {
             let (e, f) = (self.edges[pair.edges[0] as usize], self.edges[pair.edges[1] as usize]);
             let (i, j) = ([x[e[0]], x[e[1]]], [x[f[0]], x[f[1]]]);
-            let reach = thickness + 2.0 * relative(&e, &f);
+            let reach = thickness + 2.0 * travel(&[e[0], e[1], f[0], f[1]]);
             // Along any unit direction the closest points are apart by at least the second edge's
             // lowest end less the first edge's highest: a pair that far along its last normal is far.
             let apart = |n: DVec3| j[0].dot(n).min(j[1].dot(n)) - i[0].dot(n).max(i[1].dot(n));
@@ -157,9 +149,6 @@ impl SelfCollision {
                 continue;
             }
             let gap = segment_gap(i, j);
-            if gap.length() >= 2.0 * reach {
-                continue;
-            }
             let cross = (i[1] - i[0]).cross(j[1] - j[0]);
             let parallel =
                 cross.length_squared() <= 1e-12 * (i[1] - i[0]).length_squared() * (j[1] - j[0]).length_squared();
