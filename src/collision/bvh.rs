@@ -306,6 +306,34 @@ mod tests {
         );
     }
 
+    /// A V of two planes at ±15° is one flat patch while its normals may turn by 25° more, and two
+    /// (its halves) when they may turn by 35°; the skipped patches hold each triangle once.
+    #[test]
+    fn a_tilt_narrows_the_flat_patches_and_they_are_recorded() {
+        let mesh = crate::mesh::generate::grid([2.0, 1.0], [16, 12]).unwrap();
+        let (rest, triangles) = (mesh.positions().to_vec(), mesh.triangles().to_vec());
+        let mut tree = TriangleTree::new(&rest, &triangles);
+        let (cos, sin) = (15f64.to_radians().cos(), 15f64.to_radians().sin());
+        let x: Vec<DVec3> = rest.iter().map(|p| DVec3::new(p.x * cos, p.x.abs() * sin, p.z)).collect();
+        tree.refit(|t| {
+            let c = triangles[t].map(|i| x[i]);
+            let (lo, hi) =
+                c.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+            let normal = (c[1] - c[0]).cross(c[2] - c[0]).normalize();
+            Leaf { lo: lo - 0.0005, hi: hi + 0.0005, normal, reach: 0.001 }
+        });
+        let all: Vec<u32> = (0..triangles.len() as u32).collect();
+        for (tilt, patches, pairs) in [(25.0, 1, false), (35.0, 2, true)] {
+            let mut found = 0;
+            tree.overlapping_pairs(Tilt::new(f64::to_radians(tilt)), |_, _| found += 1);
+            let mut covered: Vec<u32> = tree.flat_patches().collect();
+            covered.sort_unstable();
+            assert_eq!(covered, all, "tilt {tilt}°: every triangle once");
+            assert_eq!(tree.skipped.len(), patches, "tilt {tilt}°");
+            assert_eq!(found > 0, pairs, "tilt {tilt}°: {found} pairs");
+        }
+    }
+
     /// With small reaches, flat patches are not searched within, yet every pair of triangles sharing
     /// no corner that is truly within reach (by its vertices' and edges' distances) still comes out.
     #[test]
