@@ -16,6 +16,12 @@
 //! largest reach asked of the patch's triangles, the patch cannot hold a pair within reach. A patch is
 //! a subtree of the rest-shape split, compact and simply connected, so it cannot wind round onto
 //! itself without shearing by far more than cloth does.
+//!
+//! The query can be asked for patches that stay flat while each of their triangles' normals turns by
+//! up to a tilt `δ` (a patch's cone is then at most its half-angle plus `δ`, so it is skipped only if
+//! that sum is within 45°), and it records the patches it skipped ([`TriangleTree::flat_patches`]): a
+//! caller that checks that no triangle of them has turned by more than `δ` knows they are still flat,
+//! whatever else moved.
 
 use glam::DVec3;
 
@@ -69,6 +75,8 @@ struct Node {
     altitude: f64,
     children: [u32; 2],
     triangle: u32,
+    /// One past the last node of its subtree (depth-first order: the subtree is `index..end`).
+    end: u32,
 }
 
 /// What the query needs of a triangle at present.
@@ -80,8 +88,27 @@ pub struct Leaf {
     pub hi: DVec3,
     /// Its unit normal (zero if degenerate).
     pub normal: DVec3,
-    /// How near another primitive must be to it to count.
+    /// How near another primitive must be to it to count (within a patch that stays flat).
     pub reach: f64,
+}
+
+/// The tilt `δ` a query allows each triangle's normal, as its cosine and sine.
+#[derive(Debug, Clone, Copy)]
+pub struct Tilt {
+    /// `cos δ`.
+    pub cos: f64,
+    /// `sin δ`.
+    pub sin: f64,
+}
+
+impl Tilt {
+    /// No tilt: patches flat as they are.
+    pub const NONE: Tilt = Tilt { cos: 1.0, sin: 0.0 };
+
+    /// A tilt of `angle` radians (in `[0, π/4]`).
+    pub fn new(angle: f64) -> Self {
+        Self { cos: angle.cos(), sin: angle.sin() }
+    }
 }
 
 /// The hierarchy.
@@ -91,6 +118,8 @@ pub struct TriangleTree {
     nodes: Vec<Node>,
     /// Scratch for the query.
     stack: Vec<[u32; 2]>,
+    /// The nodes the last query skipped as flat.
+    skipped: Vec<u32>,
 }
 
 impl TriangleTree {
@@ -107,7 +136,7 @@ impl TriangleTree {
             })
             .collect();
         let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-        let mut tree = Self { nodes: Vec::with_capacity(2 * triangles.len()), stack: Vec::new() };
+        let mut tree = Self { nodes: Vec::with_capacity(2 * triangles.len()), stack: Vec::new(), skipped: Vec::new() };
         if !order.is_empty() {
             tree.split(&mut order, &centroids, &altitudes);
         }
@@ -125,6 +154,7 @@ impl TriangleTree {
             altitude: f64::INFINITY,
             children: [LEAF; 2],
             triangle: 0,
+            end: index + 1,
         };
         if let [only] = items {
             self.nodes.push(Node { triangle: *only, altitude: altitudes[*only as usize], ..empty });
@@ -150,8 +180,9 @@ impl TriangleTree {
         let l = self.split(left, centroids, altitudes);
         let r = self.split(right, centroids, altitudes);
         let altitude = self.nodes[l as usize].altitude.min(self.nodes[r as usize].altitude);
-        self.nodes[index as usize].children = [l, r];
-        self.nodes[index as usize].altitude = altitude;
+        let end = self.nodes.len() as u32;
+        let node = &mut self.nodes[index as usize];
+        (node.children, node.altitude, node.end) = ([l, r], altitude, end);
         index
     }
 
@@ -173,14 +204,17 @@ impl TriangleTree {
         }
     }
 
-    /// Whether nothing in node `n`'s patch can be within reach of anything else in it.
-    fn flat(n: &Node) -> bool {
-        n.cone.cos >= FLAT && 0.9 * FLAT * n.altitude > n.reach
+    /// Whether nothing in node `n`'s patch can be within reach of anything else in it, while each
+    /// normal turns by up to `tilt` (the cone's half-angle plus the tilt within 45°).
+    fn flat(n: &Node, tilt: Tilt) -> bool {
+        n.cone.cos * tilt.cos - n.cone.sin * tilt.sin >= FLAT && 0.9 * FLAT * n.altitude > n.reach
     }
 
     /// Call `found` with every pair of distinct triangles whose boxes overlap, each pair once, except
-    /// pairs within a flat patch (see the module's notes).
-    pub fn overlapping_pairs(&mut self, mut found: impl FnMut(u32, u32)) {
+    /// pairs within a patch that stays flat while its normals turn by up to `tilt` (see the module's
+    /// notes).
+    pub fn overlapping_pairs(&mut self, tilt: Tilt, mut found: impl FnMut(u32, u32)) {
+        self.skipped.clear();
         if self.nodes.is_empty() {
             return;
         }
@@ -191,7 +225,12 @@ impl TriangleTree {
         while let Some([a, b]) = stack.pop() {
             let (na, nb) = (&nodes[a as usize], &nodes[b as usize]);
             if a == b {
-                if na.children[0] != LEAF && !Self::flat(na) {
+                if na.children[0] == LEAF {
+                    continue;
+                }
+                if Self::flat(na, tilt) {
+                    self.skipped.push(a);
+                } else {
                     let [l, r] = na.children;
                     stack.extend([[l, r], [r, r], [l, l]]);
                 }
@@ -209,6 +248,14 @@ impl TriangleTree {
                 _ => stack.extend(nb.children.map(|c| [a, c]).into_iter().rev()),
             }
         }
+    }
+
+    /// The triangles of the patches the last query skipped as flat (each once).
+    pub fn flat_patches(&self) -> impl Iterator<Item = u32> + '_ {
+        self.skipped.iter().flat_map(|&k| {
+            let node = &self.nodes[k as usize];
+            self.nodes[k as usize..node.end as usize].iter().filter(|n| n.children[0] == LEAF).map(|n| n.triangle)
+        })
     }
 }
 
@@ -237,7 +284,7 @@ mod tests {
             Leaf { lo, hi, normal: DVec3::Z, reach: 1.0 }
         });
         let mut found = Vec::new();
-        tree.overlapping_pairs(|a, b| found.push([a.min(b), a.max(b)]));
+        tree.overlapping_pairs(Tilt::NONE, |a, b| found.push([a.min(b), a.max(b)]));
         let count = found.len();
         found.sort_unstable();
         found.dedup();
@@ -259,6 +306,34 @@ mod tests {
         );
     }
 
+    /// A V of two planes at ±15° is one flat patch while its normals may turn by 25° more, and two
+    /// (its halves) when they may turn by 35°; the skipped patches hold each triangle once.
+    #[test]
+    fn a_tilt_narrows_the_flat_patches_and_they_are_recorded() {
+        let mesh = crate::mesh::generate::grid([2.0, 1.0], [16, 12]).unwrap();
+        let (rest, triangles) = (mesh.positions().to_vec(), mesh.triangles().to_vec());
+        let mut tree = TriangleTree::new(&rest, &triangles);
+        let (cos, sin) = (15f64.to_radians().cos(), 15f64.to_radians().sin());
+        let x: Vec<DVec3> = rest.iter().map(|p| DVec3::new(p.x * cos, p.x.abs() * sin, p.z)).collect();
+        tree.refit(|t| {
+            let c = triangles[t].map(|i| x[i]);
+            let (lo, hi) =
+                c.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+            let normal = (c[1] - c[0]).cross(c[2] - c[0]).normalize();
+            Leaf { lo: lo - 0.0005, hi: hi + 0.0005, normal, reach: 0.001 }
+        });
+        let all: Vec<u32> = (0..triangles.len() as u32).collect();
+        for (tilt, patches, pairs) in [(25.0, 1, false), (35.0, 2, true)] {
+            let mut found = 0;
+            tree.overlapping_pairs(Tilt::new(f64::to_radians(tilt)), |_, _| found += 1);
+            let mut covered: Vec<u32> = tree.flat_patches().collect();
+            covered.sort_unstable();
+            assert_eq!(covered, all, "tilt {tilt}°: every triangle once");
+            assert_eq!(tree.skipped.len(), patches, "tilt {tilt}°");
+            assert_eq!(found > 0, pairs, "tilt {tilt}°: {found} pairs");
+        }
+    }
+
     /// With small reaches, flat patches are not searched within, yet every pair of triangles sharing
     /// no corner that is truly within reach (by its vertices' and edges' distances) still comes out.
     #[test]
@@ -278,7 +353,7 @@ mod tests {
             Leaf { lo: lo - 0.5 * reach, hi: hi + 0.5 * reach, normal, reach }
         });
         let mut found = std::collections::HashSet::new();
-        tree.overlapping_pairs(|a, b| {
+        tree.overlapping_pairs(Tilt::NONE, |a, b| {
             found.insert([a.min(b), a.max(b)]);
         });
         let distance = |a: usize, b: usize| {
