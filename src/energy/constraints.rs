@@ -70,8 +70,10 @@ pub fn atan2<N: Real>(y: N, x: N) -> N {
     let steep = ax.less(ay);
     let (lo, hi) = (N::select(steep, ax, ay), N::select(steep, ay, ax));
     let z = N::select(zero.less(hi), lo / hi, zero);
-    let z = z / (one + (one + z * z).sqrt());
-    let z = z / (one + (one + z * z).sqrt());
+    // Halved twice with one division: `z₁ = z/h₁`, `h₁ = 1 + √(1 + z²)`, and `z₁/(1 + √(1 + z₁²)) =
+    // z/(h₁ + √(h₁² + z²))`.
+    let h1 = one + (one + z * z).sqrt();
+    let z = z / (h1 + (h1 * h1 + z * z).sqrt());
     let z2 = z * z;
     let mut series = x.constant(-1.0 / 23.0);
     for k in (0..11).rev() {

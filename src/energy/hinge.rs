@@ -57,16 +57,18 @@ pub fn angle_parts<N: Real>(x: &[V3<N>; 4]) -> (N, N, [V3<N>; 4]) {
     let e = sub(b, a);
     let l2 = dot(e, e);
     let l = l2.sqrt();
+    // One division for the three that share `|e|²` (they are the hot loop's slowest instructions).
+    let inverse_l2 = l2.constant(1.0) / l2;
     let (ca, da) = (sub(c, a), sub(d, a));
     let n1 = cross(e, ca);
     let n2 = cross(sub(a, b), sub(d, b));
     let gc = scale(n1, -l / dot(n1, n1));
     let gd = scale(n2, -l / dot(n2, n2));
-    let s1 = dot(ca, e) / l2;
-    let s2 = dot(da, e) / l2;
+    let s1 = dot(ca, e) * inverse_l2;
+    let s2 = dot(da, e) * inverse_l2;
     let gb = neg(add(scale(gc, s1), scale(gd, s2)));
     let ga = neg(add(add(gb, gc), gd));
-    (dot(cross(n1, n2), e) / l, dot(n1, n2), [ga, gb, gc, gd])
+    (dot(cross(n1, n2), e) * (l * inverse_l2), dot(n1, n2), [ga, gb, gc, gd])
 }
 
 /// The angle and its gradient.
