@@ -3,8 +3,8 @@
 //! The crate is built for the baseline x86-64 (SSE2, no FMA) so that the binary runs anywhere; a
 //! [`Kernel`] run through [`avx2`] (or a `pulp::WithSimd` through [`avx2_lanes`]) is compiled a
 //! second time for AVX2 + FMA and the version the CPU supports is chosen at run time by [`pulp`];
-//! loops dispatched by `pulp::Arch` directly get AVX-512 where the CPU has it. Only code inlined into the kernel gets
-//! the wider instructions, so [`Kernel::run`] and the functions it calls are marked
+//! loops dispatched by `pulp::Arch` directly get AVX-512 where the CPU has it. Only code inlined into
+//! the kernel gets the wider instructions, so [`Kernel::run`] and the functions it calls are marked
 //! `#[inline(always)]` (a closure would not be inlined into the dispatched function). Results are
 //! unchanged: Rust never fuses or reorders floating-point operations on its own.
 
@@ -35,8 +35,8 @@ pub fn avx2<K: Kernel>(kernel: K) -> K::Output {
 /// Run `op`, generic over the lane count, with AVX2 + FMA's four lanes where the CPU has them (else
 /// the best it has), for loops that measured slower on AVX-512: the position-based sweeps, whose
 /// constraints gather their particles lane by lane (the 961-particle drape, falling: 2.44–2.52 ms a
-/// frame on AVX-512 against 2.30–2.35 ms, the two run alternately). Loops that stream wide rows (the modal passes) are dispatched by
-/// `pulp::Arch` to the widest set instead.
+/// frame on AVX-512 against 2.30–2.35 ms, the two run alternately). Loops that stream wide rows (the
+/// modal passes) are dispatched by `pulp::Arch` to the widest set instead.
 pub fn avx2_lanes<Op: pulp::WithSimd>(op: Op) -> Op::Output {
     #[cfg(target_arch = "x86_64")]
     if let Some(simd) = pulp::x86::V3::try_new() {

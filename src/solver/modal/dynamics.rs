@@ -21,9 +21,9 @@
 //! a triangle has turned by [`super::rotation_strain::ROWS_TURN`]); orientation
 //! constraints `Ψ_i q = w*` are linear. Writing each linearised constraint as `o + J q = t` (the
 //! offset `o = u_i(q) − J_i q` is zero except for MWTS-RS), the multipliers solve the damped
-//! least-squares system `(J D Jᵀ + ε I) μ = t − o − J q̂` with `ε = damping · trace(J D Jᵀ) / rows` — equivalently, each drag
-//! is a stiff implicit spring of compliance `ε`. With the default `damping = 1e-2` a reachable target
-//! is met to about 1%, and an unreachable one (a drag that over-determines the few modes) settles at
+//! least-squares system `(J D Jᵀ + ε I) μ = t − o − J q̂` with `ε = damping · trace(J D Jᵀ) / rows`
+//! — equivalently, each drag is a stiff implicit spring of compliance `ε`. With the default
+//! `damping = 1e-2` a reachable target is met to about 1%, and an unreachable one (a drag that over-determines the few modes) settles at
 //! the closest compromise instead of thrashing: re-linearising `B` every step with a hard constraint
 //! (`damping → 0`) makes such drags oscillate wildly (energy 3 J → 1700 J on the cantilever).
 
@@ -166,8 +166,10 @@ impl ModalDynamics {
             Shape::RotationStrain(rs) => rs.stiffness(),
             _ => None,
         };
-        let diagonal = DMatrix::from_diagonal(&DVector::from_column_slice(&implicit));
-        let (mut v_hat, d): (Vec<f64>, _) = match stiffness.and_then(|hs| (diagonal - hs * (h * h)).cholesky()) {
+        let with_load = |hs: &DMatrix<f64>| {
+            (DMatrix::from_diagonal(&DVector::from_column_slice(&implicit)) - hs * (h * h)).cholesky()
+        };
+        let (mut v_hat, d): (Vec<f64>, _) = match stiffness.and_then(with_load) {
             Some(s) => (s.solve(&DVector::from_column_slice(&rhs)).iter().copied().collect(), s.inverse() * (h * h)),
             None => (
                 rhs.iter().zip(&implicit).map(|(r, d)| r / d).collect(),

@@ -275,7 +275,6 @@ impl Pbd {
         }
     }
 
-    /// Compliance of the edges and of hinge `weight` (XPBD), ∞ meaning "no constraint".
     /// A particle deeper inside a scripted collider than an edge is long has gone through it: the
     /// substeps are too few for the speeds (a fine strip hitting the ground, say). The state stays
     /// finite, so this is reported as the divergence it is instead of crumpling on.
@@ -302,6 +301,7 @@ impl Pbd {
         Ok(())
     }
 
+    /// Compliance of the edges and of hinge `weight` (XPBD), ∞ meaning "no constraint".
     fn compliances(&self) -> (f64, f64) {
         let stretch = self.compliance.0.unwrap_or(1.0 / self.k_s);
         let bend = self.compliance.1.unwrap_or(if self.k_b > 0.0 { 1.0 / self.k_b } else { f64::INFINITY });

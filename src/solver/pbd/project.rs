@@ -5,8 +5,9 @@
 //! Edges and hinges come in colours (no two of a colour share a particle, [`super::model`]), so the
 //! constraints of a colour are independent: projecting them one after another or all at once gives
 //! the same positions. The sweeps take them four at a time where the CPU has AVX2
-//! ([`crate::linalg::isa::avx2_lanes`]; eight, on AVX-512, measured slower): gather their particles, evaluate the constraint functions — the
-//! same source the scalar ones are ([`Real`]) — on all lanes at once, scatter the corrections.
+//! ([`crate::linalg::isa::avx2_lanes`]; eight, on AVX-512, measured slower): gather their particles,
+//! evaluate the constraint functions — the same source the scalar ones are ([`Real`]) — on all lanes
+//! at once, scatter the corrections.
 
 use std::marker::PhantomData;
 

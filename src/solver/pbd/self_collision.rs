@@ -181,7 +181,7 @@ impl SelfCollision {
             let reach = thickness + side(&triangles[t]);
             let (lo, hi) =
                 c.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
-            let normal = (c[1] - c[0]).cross(c[2] - c[0]).normalize_or_zero();
+            let normal = area_normal(c).normalize_or_zero();
             Leaf { lo: lo - 0.5 * reach, hi: hi + 0.5 * reach, normal, reach: flat_reach }
         });
         let (mut near_vertices, mut near_edges) = (Vec::new(), Vec::new());
@@ -214,10 +214,9 @@ impl SelfCollision {
             }
         });
         self.watched.clear();
-        self.watched.extend(self.tree.flat_patches().map(|t| {
-            let c = triangles[t as usize].map(|i| x[i]);
-            (t, (c[1] - c[0]).cross(c[2] - c[0]).normalize_or_zero())
-        }));
+        self.watched.extend(
+            self.tree.flat_patches().map(|t| (t, area_normal(triangles[t as usize].map(|i| x[i])).normalize_or_zero())),
+        );
         near_vertices.sort_unstable();
         near_edges.sort_unstable();
         self.pairs = carry(
@@ -255,8 +254,7 @@ impl SelfCollision {
     fn turned(&self, y: &[DVec3], triangles: &[[usize; 3]]) -> bool {
         let cos2 = TILT.cos().powi(2);
         self.watched.iter().any(|&(t, before)| {
-            let c = triangles[t as usize].map(|i| y[i]);
-            let n = (c[1] - c[0]).cross(c[2] - c[0]);
+            let n = area_normal(triangles[t as usize].map(|i| y[i]));
             let along = n.dot(before);
             !(along > 0.0 && along * along > cos2 * n.length_squared())
         })
@@ -266,6 +264,11 @@ impl SelfCollision {
     pub fn active(&self) -> usize {
         self.active.len() + self.active_edges.len()
     }
+}
+
+/// Twice a triangle's area along its normal, `(c₁ − c₀) × (c₂ − c₀)`.
+fn area_normal(c: [DVec3; 3]) -> DVec3 {
+    (c[1] - c[0]).cross(c[2] - c[0])
 }
 
 /// The mean of the displacements `y − from`.
