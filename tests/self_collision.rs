@@ -60,18 +60,67 @@ fn intersections(x: &[DVec3], triangles: &[[usize; 3]]) -> usize {
     found
 }
 
-/// Frames with intersections and the most in one frame, over `frames` frames of the pile.
-fn pile(self_collision: bool, frames: usize) -> (usize, usize) {
-    let setup = scene::load("pile", &[format!("solver.self_collision={self_collision}")]).unwrap();
+/// Frames with intersections and the most in one frame, over `frames` frames of `scene` with `sets`.
+fn count(scene_name: &str, sets: &[String], frames: usize) -> (usize, usize) {
+    let setup = scene::load(scene_name, sets).unwrap();
     let mut s = solver::build(&setup).unwrap();
     let (mut bad_frames, mut most) = (0, 0);
-    for _ in 0..frames {
-        s.step().unwrap();
+    for frame in 0..frames {
+        s.step().unwrap_or_else(|e| panic!("{scene_name}, frame {frame}: {e}"));
         let n = intersections(s.positions(), setup.mesh.triangles());
         bad_frames += usize::from(n > 0);
         most = most.max(n);
     }
     (bad_frames, most)
+}
+
+/// Frames with intersections and the most in one frame, over `frames` frames of the pile.
+fn pile(self_collision: bool, frames: usize) -> (usize, usize) {
+    count("pile", &[format!("solver.self_collision={self_collision}")], frames)
+}
+
+/// The 10,000-particle sheet of the benchmark (`benches/pbd.rs`): the hanging sheet refined to 100 ×
+/// 100 particles, edges of 1 cm, a thickness of 2 mm, by `xpbd` at 1/60 s frames of `substeps` × one
+/// sweep (or the pile's 4 × 2).
+fn sheet(substeps: usize, sweeps: usize) -> Vec<String> {
+    [
+        "mesh.grid.segments=[99,99]",
+        "solver.method=xpbd",
+        "solver.step=0.0166666666666667",
+        "solver.self_collision=true",
+        "solver.thickness=0.002",
+    ]
+    .map(String::from)
+    .into_iter()
+    .chain([format!("solver.substeps={substeps}"), format!("solver.sweeps={sweeps}")])
+    .collect()
+}
+
+/// The benchmark's settings keep the zero-intersection property on the 10,000-particle sheet as it
+/// falls from its clips, folds and swings (5 s).
+#[test]
+fn the_benchmarked_sheet_never_intersects_itself() {
+    let (bad, most) = count("hanging-sheet", &sheet(16, 1), 300);
+    eprintln!("10,000-particle sheet, 16 substeps × 1 sweep: {bad} of 300 frames with intersections (at most {most})");
+    assert_eq!(bad, 0, "{bad} frames intersect (up to {most} triangle pairs)");
+}
+
+/// The benchmark's settings keep the pile whole as well (600 frames).
+#[test]
+fn the_pile_at_the_benchmarks_settings_never_intersects_itself() {
+    let sets = ["solver.substeps=16", "solver.sweeps=1"].map(String::from);
+    let (bad, most) = count("pile", &sets, 600);
+    eprintln!("pile, 16 substeps × 1 sweep: {bad} of 600 frames with intersections (at most {most})");
+    assert_eq!(bad, 0, "{bad} frames intersect (up to {most} triangle pairs)");
+}
+
+/// The pile's 4 substeps × 2 sweeps do not keep it on the sheet: its middle falls over an edge a
+/// substep as it folds, and goes through (frame 14, measured).
+#[test]
+fn the_sheet_at_the_piles_substeps_goes_through_itself() {
+    let (bad, most) = count("hanging-sheet", &sheet(4, 2), 20);
+    eprintln!("10,000-particle sheet, 4 substeps × 2 sweeps: {bad} of 20 frames with intersections (at most {most})");
+    assert!(bad > 0, "expected the fold to go through at 4 substeps");
 }
 
 #[test]
