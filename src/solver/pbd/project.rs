@@ -4,10 +4,12 @@
 //!
 //! Edges and hinges come in colours (no two of a colour share a particle, [`super::model`]), so the
 //! constraints of a colour are independent: projecting them one after another or all at once gives
-//! the same positions. The sweeps take them four at a time where the CPU has AVX2
-//! ([`crate::linalg::isa::avx2_lanes`]; eight, on AVX-512, measured slower): gather their particles,
-//! evaluate the constraint functions — the same source the scalar ones are ([`Real`]) — on all lanes
-//! at once, scatter the corrections.
+//! the same positions. The sweeps take them eight at a time where the CPU has AVX2
+//! ([`crate::linalg::isa::avx2_lanes`]; sixteen, on AVX-512, measured slower), in single precision
+//! ([`Lanes32`]): gather their particles relative to each constraint's first (so the lanes hold
+//! differences of the size of an edge, to a relative 6e-8), evaluate the constraint functions — the
+//! same source the scalar ones are ([`Real`]) — on all lanes at once, and add the corrections to the
+//! double-precision positions and multipliers.
 
 use std::marker::PhantomData;
 
@@ -17,7 +19,7 @@ use pulp::Simd;
 
 use super::model::{Bend, Edge};
 use crate::energy::constraints;
-use crate::linalg::real::{self, Lanes, Real, V3};
+use crate::linalg::real::{self, Lanes32, Real, V3};
 
 /// How a constraint's multiplier changes, given `C`, `Σ w|∇C|²`, its scaled compliance `α̃` and the
 /// multiplier `λ` accumulated so far.
@@ -137,21 +139,21 @@ impl<const K: usize, T: Lane<K>, R: Rule> pulp::WithSimd for Constraints<'_, T, 
     #[inline(always)]
     fn with_simd<S: Simd>(self, simd: S) {
         // The lane count as a constant, so the gathers build vectors in registers.
-        match S::F64_LANES {
+        match S::F32_LANES {
+            16 => self.lanes::<S, 16>(simd),
             8 => self.lanes::<S, 8>(simd),
             4 => self.lanes::<S, 4>(simd),
-            2 => self.lanes::<S, 2>(simd),
             _ => self.lanes::<S, 1>(simd),
         }
     }
 }
 
 impl<const K: usize, T: Lane<K>, R: Rule> Constraints<'_, T, R, K> {
-    /// The sweep, `L` (= `S::F64_LANES`) constraints at a time.
+    /// The sweep, `L` (= `S::F32_LANES`) constraints at a time.
     #[inline(always)]
     fn lanes<S: Simd, const L: usize>(self, simd: S) {
         let Sweep { p, w, lambda, compliance, rule } = self.sweep;
-        let gather = |value: [f64; L]| Lanes::<S>::load(simd, &value);
+        let gather = |value: [f32; L]| Lanes32::<S>::load(simd, &value);
         for colour in self.colours.windows(2) {
             let mut start = colour[0];
             while start < colour[1] {
@@ -160,20 +162,22 @@ impl<const K: usize, T: Lane<K>, R: Rule> Constraints<'_, T, R, K> {
                 // Gather (lanes past the colour's end repeat its last constraint and are not
                 // scattered).
                 let mut ids = [[0usize; K]; L];
-                let mut x = [[[0.0; L]; 3]; K];
-                let (mut ws, mut constants) = ([[0.0; L]; K], [[0.0; L]; 2]);
-                let (mut lambdas, mut compliances) = ([0.0; L], [0.0; L]);
+                let mut x = [[[0.0f32; L]; 3]; K];
+                let (mut ws, mut constants) = ([[0.0f32; L]; K], [[0.0f32; L]; 2]);
+                let (mut lambdas, mut compliances) = ([0.0f32; L], [0.0f32; L]);
                 for k in 0..L {
                     let item = &group[k.min(count - 1)];
                     ids[k] = item.particles();
+                    let origin = p[ids[k][0]];
                     for j in 0..K {
-                        let q = p[ids[k][j]];
-                        (x[j][0][k], x[j][1][k], x[j][2][k]) = (q.x, q.y, q.z);
-                        ws[j][k] = w[ids[k][j]];
+                        let q = p[ids[k][j]] - origin;
+                        (x[j][0][k], x[j][1][k], x[j][2][k]) = (q.x as f32, q.y as f32, q.z as f32);
+                        ws[j][k] = w[ids[k][j]] as f32;
                     }
-                    [constants[0][k], constants[1][k]] = item.constants();
-                    lambdas[k] = lambda[start + k.min(count - 1)];
-                    compliances[k] = item.compliance(compliance);
+                    let [a, b] = item.constants();
+                    (constants[0][k], constants[1][k]) = (a as f32, b as f32);
+                    lambdas[k] = lambda[start + k.min(count - 1)] as f32;
+                    compliances[k] = item.compliance(compliance) as f32;
                 }
                 let mut xs = [[gather([0.0; L]); 3]; K];
                 let mut wl = [gather([0.0; L]); K];
@@ -191,20 +195,21 @@ impl<const K: usize, T: Lane<K>, R: Rule> Constraints<'_, T, R, K> {
                 let denominator = (0..K).fold(zero, |sum, j| sum + wl[j] * real::dot(g[j], g[j]));
                 let delta = rule.delta(c, denominator, compliances, lambdas);
                 // A constraint without movable particles, or degenerate, is left alone.
-                let delta = Lanes::select(c.constant(1e-300).less(denominator), delta, zero);
-                let delta = Lanes::select(delta.abs().less(c.constant(f64::INFINITY)), delta, zero);
-                let mut deltas = [0.0; L];
+                let delta = Lanes32::select(zero.less(denominator), delta, zero);
+                let delta = Lanes32::select(delta.abs().less(c.constant(f64::INFINITY)), delta, zero);
+                let mut deltas = [0.0f32; L];
                 delta.store(&mut deltas);
-                let mut steps = [[[0.0; L]; 3]; K];
+                let mut steps = [[[0.0f32; L]; 3]; K];
                 for j in 0..K {
                     let step = real::scale(g[j], wl[j] * delta);
                     (0..3).for_each(|a| step[a].store(&mut steps[j][a]));
                 }
                 // Scatter.
                 for k in 0..count {
-                    lambda[start + k] += deltas[k];
+                    lambda[start + k] += f64::from(deltas[k]);
                     for j in 0..K {
-                        p[ids[k][j]] += DVec3::new(steps[j][0][k], steps[j][1][k], steps[j][2][k]);
+                        let [sx, sy, sz] = [0, 1, 2].map(|a| f64::from(steps[j][a][k]));
+                        p[ids[k][j]] += DVec3::new(sx, sy, sz);
                     }
                 }
                 start += count;
@@ -221,5 +226,86 @@ pub fn volume(triangles: &[[usize; 3]], p: &mut [DVec3], w: &[f64], target: f64,
     if denominator > 0.0 {
         let dl = -c / denominator;
         p.iter_mut().zip(gradient.iter()).zip(w).for_each(|((p, g), w)| *p += *g * (w * dl));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::energy::constraints::RestAngle;
+
+    /// A colour of `n` disjoint constraints of `K` particles each, bent and stretched off their rest
+    /// state, 100 m from the origin (where an `f32` position would be good to only 4 µm).
+    fn scattered<const K: usize>(n: usize) -> (Vec<DVec3>, Vec<f64>) {
+        let offset = DVec3::new(100.0, -50.0, 75.0);
+        let base = [
+            DVec3::ZERO,
+            DVec3::new(0.01, 0.0, 0.0),
+            DVec3::new(0.004, 0.009, 0.001),
+            DVec3::new(0.006, -0.008, 0.002),
+        ];
+        let p = (0..n * K)
+            .map(|i| {
+                let k = (i / K) as f64;
+                offset + base[i % K] * (1.0 + 0.1 * (0.7 * k).sin()) + DVec3::new(0.02 * k, 0.0, 0.0)
+            })
+            .collect();
+        let w = (0..n * K).map(|i| if i % 7 == 3 { 0.0 } else { 1.0e5 * (1.0 + 0.3 * (i as f64).cos()) }).collect();
+        (p, w)
+    }
+
+    /// One XPBD projection of each constraint in double precision: `Δλ` and the particles' moves.
+    fn expected(c: f64, g: &[DVec3], ids: &[usize], w: &[f64], compliance: f64, lambda: f64) -> (f64, Vec<DVec3>) {
+        let denominator: f64 = g.iter().zip(ids).map(|(g, &i)| w[i] * g.length_squared()).sum();
+        let delta = (-c - compliance * lambda) / (denominator + compliance);
+        (delta, g.iter().zip(ids).map(|(g, &i)| *g * (w[i] * delta)).collect())
+    }
+
+    /// The single-precision sweep moves each particle as the double-precision formula does, to a
+    /// relative 1e-5 of the move, far from the origin too.
+    #[test]
+    fn the_single_precision_sweep_agrees_with_double_precision() {
+        let n = 37;
+        let (start, w) = scattered::<4>(n);
+        let bends: Vec<Bend> = (0..n)
+            .map(|k| Bend {
+                v: [4 * k, 4 * k + 1, 4 * k + 2, 4 * k + 3],
+                rest: RestAngle::new(0.3),
+                inverse_weight: 0.8,
+            })
+            .collect();
+        let edges: Vec<Edge> = (0..n).map(|k| Edge { v: [4 * k, 4 * k + 2], rest: 0.009 }).collect();
+        let compliance = 2.0e3;
+        for case in ["bend", "stretch"] {
+            let mut p = start.clone();
+            let mut lambda: Vec<f64> = (0..n).map(|k| 1e-6 * k as f64).collect();
+            let before = lambda.clone();
+            let colours = [0, n];
+            let sweep = Sweep { p: &mut p, w: &w, lambda: &mut lambda, compliance, rule: Compliance };
+            if case == "bend" {
+                bend(&bends, &colours, sweep)
+            } else {
+                stretch(&edges, &colours, sweep)
+            }
+            for k in 0..n {
+                let (ids, (c, g), alpha) = if case == "bend" {
+                    let b = bends[k];
+                    let (c, g) = constraints::bending(&b.v.map(|i| start[i]), b.rest);
+                    (b.v.to_vec(), (c, g.to_vec()), compliance * b.inverse_weight)
+                } else {
+                    let e = edges[k];
+                    let (c, g) = constraints::stretch(start[e.v[0]], start[e.v[1]], e.rest);
+                    (e.v.to_vec(), (c, g.to_vec()), compliance)
+                };
+                let (delta, moves) = expected(c, &g, &ids, &w, alpha, before[k]);
+                let scale = moves.iter().map(|m| m.length()).fold(0.0, f64::max);
+                assert!(scale > 1e-5, "{case} {k}: the test should move particles ({scale})");
+                for (&i, m) in ids.iter().zip(&moves) {
+                    let error = (p[i] - start[i] - *m).length();
+                    assert!(error <= 1e-5 * scale, "{case} {k}: particle {i} off by {error:e} of {scale:e}");
+                }
+                assert!((lambda[k] - before[k] - delta).abs() <= 1e-5 * delta.abs(), "{case} {k}: Δλ");
+            }
+        }
     }
 }
