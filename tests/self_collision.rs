@@ -80,8 +80,8 @@ fn pile(self_collision: bool, frames: usize) -> (usize, usize) {
 }
 
 /// The 10,000-particle sheet of the benchmark (`benches/pbd.rs`): the hanging sheet refined to 100 ×
-/// 100 particles, edges of 1 cm, a thickness of 2 mm, by `xpbd` at 1/60 s frames of `substeps` × one
-/// sweep (or the pile's 4 × 2).
+/// 100 particles, edges of 1 cm, a thickness of 2 mm, by `xpbd` at 1/60 s frames of `substeps` ×
+/// `sweeps` (16 × 1 in the benchmark).
 fn sheet(substeps: usize, sweeps: usize) -> Vec<String> {
     [
         "mesh.grid.segments=[99,99]",

@@ -263,6 +263,16 @@ impl TriangleTree {
 mod tests {
     use super::*;
 
+    /// Refit `tree` to the triangles at `x`, each box grown by half of `reach` (every triangle's reach).
+    fn refit_at(tree: &mut TriangleTree, triangles: &[[usize; 3]], x: &[DVec3], reach: f64) {
+        tree.refit(|t| {
+            let c = triangles[t].map(|i| x[i]);
+            let (lo, hi) = crate::mesh::bounds(&c);
+            let normal = (c[1] - c[0]).cross(c[2] - c[0]).normalize();
+            Leaf { lo: lo - 0.5 * reach, hi: hi + 0.5 * reach, normal, reach }
+        });
+    }
+
     /// Every overlapping pair, each once, against all pairs tested by hand.
     #[test]
     fn the_pairs_are_exactly_the_overlapping_ones() {
@@ -315,13 +325,7 @@ mod tests {
         let mut tree = TriangleTree::new(&rest, &triangles);
         let (cos, sin) = (15f64.to_radians().cos(), 15f64.to_radians().sin());
         let x: Vec<DVec3> = rest.iter().map(|p| DVec3::new(p.x * cos, p.x.abs() * sin, p.z)).collect();
-        tree.refit(|t| {
-            let c = triangles[t].map(|i| x[i]);
-            let (lo, hi) =
-                c.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
-            let normal = (c[1] - c[0]).cross(c[2] - c[0]).normalize();
-            Leaf { lo: lo - 0.0005, hi: hi + 0.0005, normal, reach: 0.001 }
-        });
+        refit_at(&mut tree, &triangles, &x, 0.001);
         let all: Vec<u32> = (0..triangles.len() as u32).collect();
         for (tilt, patches, pairs) in [(25.0, 1, false), (35.0, 2, true)] {
             let mut found = 0;
@@ -345,13 +349,7 @@ mod tests {
         // Folded over at x = 0, the halves 2 cm apart; reach 3 cm against altitudes of about 4 cm.
         let x: Vec<DVec3> = rest.iter().map(|p| DVec3::new(p.x.abs(), p.z, 0.01 * p.x.signum())).collect();
         let reach = 0.03;
-        tree.refit(|t| {
-            let c = triangles[t].map(|i| x[i]);
-            let (lo, hi) =
-                c.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
-            let normal = (c[1] - c[0]).cross(c[2] - c[0]).normalize();
-            Leaf { lo: lo - 0.5 * reach, hi: hi + 0.5 * reach, normal, reach }
-        });
+        refit_at(&mut tree, &triangles, &x, reach);
         let mut found = std::collections::HashSet::new();
         tree.overlapping_pairs(Tilt::NONE, |a, b| {
             found.insert([a.min(b), a.max(b)]);

@@ -2,8 +2,8 @@
 //! of position-based dynamics are written in ([`Real`]), implemented by `f64` (one constraint) and by
 //! [`Lanes32`] (one constraint per SIMD lane in single precision, in the instruction set [`pulp`]
 //! chose at run time). The scalar instance is what the finite-difference tests check; the vector
-//! instance is what the sweeps run, so both are the same source. Every method is `#[inline(always)]` so that a dispatched kernel
-//! compiles it with the wide instructions.
+//! instance is what the sweeps run, so both are the same source. Every method is `#[inline(always)]`
+//! so that a dispatched kernel compiles it with the wide instructions.
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 

@@ -61,7 +61,7 @@ pub fn creature(length: f64, frequency: usize) -> Result<TriMesh, MeshError> {
         return Err(MeshError::BadParameter { name: "length", reason: format!("must be positive, got {length}") });
     }
     let (positions, triangles) = star_shape(frequency)?;
-    let (lo, hi) = crate::mesh::trimesh::bounds(&positions);
+    let (lo, hi) = crate::mesh::bounds(&positions);
     let scale = length / (hi.x - lo.x);
     let shift = DVec3::new(-(lo.x + hi.x) / 2.0, -lo.y, -(lo.z + hi.z) / 2.0);
     TriMesh::new(positions.into_iter().map(|p| (p + shift) * scale).collect(), triangles)

@@ -23,9 +23,10 @@
 //! offset `o = u_i(q) − J_i q` is zero except for MWTS-RS), the multipliers solve the damped
 //! least-squares system `(J D Jᵀ + ε I) μ = t − o − J q̂` with `ε = damping · trace(J D Jᵀ) / rows`
 //! — equivalently, each drag is a stiff implicit spring of compliance `ε`. With the default
-//! `damping = 1e-2` a reachable target is met to about 1%, and an unreachable one (a drag that over-determines the few modes) settles at
-//! the closest compromise instead of thrashing: re-linearising `B` every step with a hard constraint
-//! (`damping → 0`) makes such drags oscillate wildly (energy 3 J → 1700 J on the cantilever).
+//! `damping = 1e-2` a reachable target is met to about 1%, and an unreachable one (a drag that
+//! over-determines the few modes) settles at the closest compromise instead of thrashing:
+//! re-linearising `B` every step with a hard constraint (`damping → 0`) makes such drags oscillate
+//! wildly (energy 3 J → 1700 J on the cantilever).
 
 use glam::{DMat3, DVec3};
 use nalgebra::{DMatrix, DVector};

@@ -234,9 +234,10 @@ mod tests {
     use super::*;
     use crate::energy::constraints::RestAngle;
 
-    /// A colour of `n` disjoint constraints of `K` particles each, bent and stretched off their rest
-    /// state, 100 m from the origin (where an `f32` position would be good to only 4 µm).
-    fn scattered<const K: usize>(n: usize) -> (Vec<DVec3>, Vec<f64>) {
+    /// `n` disjoint groups of four particles (a hinge each), bent and stretched off their rest state,
+    /// 100 m from the origin (where an `f32` position would be good to only 4 µm), and their inverse
+    /// masses (some zero).
+    fn scattered(n: usize) -> (Vec<DVec3>, Vec<f64>) {
         let offset = DVec3::new(100.0, -50.0, 75.0);
         let base = [
             DVec3::ZERO,
@@ -244,13 +245,13 @@ mod tests {
             DVec3::new(0.004, 0.009, 0.001),
             DVec3::new(0.006, -0.008, 0.002),
         ];
-        let p = (0..n * K)
+        let p = (0..n * 4)
             .map(|i| {
-                let k = (i / K) as f64;
-                offset + base[i % K] * (1.0 + 0.1 * (0.7 * k).sin()) + DVec3::new(0.02 * k, 0.0, 0.0)
+                let k = (i / 4) as f64;
+                offset + base[i % 4] * (1.0 + 0.1 * (0.7 * k).sin()) + DVec3::new(0.02 * k, 0.0, 0.0)
             })
             .collect();
-        let w = (0..n * K).map(|i| if i % 7 == 3 { 0.0 } else { 1.0e5 * (1.0 + 0.3 * (i as f64).cos()) }).collect();
+        let w = (0..n * 4).map(|i| if i % 7 == 3 { 0.0 } else { 1.0e5 * (1.0 + 0.3 * (i as f64).cos()) }).collect();
         (p, w)
     }
 
@@ -266,7 +267,7 @@ mod tests {
     #[test]
     fn the_single_precision_sweep_agrees_with_double_precision() {
         let n = 37;
-        let (start, w) = scattered::<4>(n);
+        let (start, w) = scattered(n);
         let bends: Vec<Bend> = (0..n)
             .map(|k| Bend {
                 v: [4 * k, 4 * k + 1, 4 * k + 2, 4 * k + 3],

@@ -38,6 +38,7 @@ use super::self_contact::{self, EdgePair, Pair, over};
 use crate::collision::bvh::{Leaf, Tilt, TriangleTree};
 use crate::collision::closest::{self, closest_on_triangle, segment_gap};
 use crate::energy::constraints::point_triangle;
+use crate::mesh::bounds;
 
 /// How far a triangle of a patch skipped as flat may turn before the search is made again, radians.
 const TILT: f64 = 10.0 * std::f64::consts::PI / 180.0;
@@ -179,8 +180,7 @@ impl SelfCollision {
         self.tree.refit(|t| {
             let c = triangles[t].map(|i| x[i]);
             let reach = thickness + side(&triangles[t]);
-            let (lo, hi) =
-                c.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+            let (lo, hi) = bounds(&c);
             let normal = area_normal(c).normalize_or_zero();
             Leaf { lo: lo - 0.5 * reach, hi: hi + 0.5 * reach, normal, reach: flat_reach }
         });
