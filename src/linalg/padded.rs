@@ -24,6 +24,14 @@ impl Padded {
         (a * e + c * h) + (b * g + d * k)
     }
 
+    /// `self − v s`, each lane one fused multiply-add (a single instruction in a kernel compiled
+    /// for FMA, [`super::isa`]).
+    #[inline(always)]
+    pub fn minus_scaled(self, v: Self, s: f64) -> Self {
+        let ([a, b, c, d], [e, g, h, k]) = (self.0, v.0);
+        Self([(-e).mul_add(s, a), (-g).mul_add(s, b), (-h).mul_add(s, c), (-k).mul_add(s, d)])
+    }
+
     /// Lane `k` (`k < 3` for the vector's components).
     #[inline(always)]
     pub fn lane(self, k: usize) -> f64 {
