@@ -18,8 +18,9 @@ pub trait Kernel {
 
 /// Run `kernel` compiled for AVX2 + FMA where the CPU has them, else for the baseline. Not for
 /// AVX-512 even where the CPU has it: these kernels work on [`super::padded::Padded`] 3-vectors in
-/// four lanes, which gain nothing from wider registers, and the creature's reconstruction solve
-/// measured 7% slower compiled for AVX-512 (0.83 against 0.78 ms).
+/// four lanes, which gain nothing from wider registers: the creature's reconstruction solve measured
+/// 7% slower compiled for AVX-512 (0.83 against 0.78 ms), and since its gathers lost their bounds
+/// checks the same on both (0.52 ms).
 pub fn avx2<K: Kernel>(kernel: K) -> K::Output {
     struct Run<K>(K);
     impl<K: Kernel> pulp::WithSimd for Run<K> {
