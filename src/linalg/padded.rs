@@ -24,8 +24,8 @@ impl Padded {
         (a * e + c * h) + (b * g + d * k)
     }
 
-    /// `self − v s`, each lane one fused multiply-add (a single instruction in a kernel compiled
-    /// for FMA, [`super::isa`]).
+    /// `self − v s`, each lane one fused multiply-add: a single instruction in a kernel compiled
+    /// for FMA ([`super::isa`]), a (slow) library call where the CPU has none.
     #[inline(always)]
     pub fn minus_scaled(self, v: Self, s: f64) -> Self {
         let ([a, b, c, d], [e, g, h, k]) = (self.0, v.0);
