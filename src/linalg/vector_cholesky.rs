@@ -19,13 +19,13 @@
 //! eight sums, two sums and a backward pass scattering from the rows (one copy of the factor instead
 //! of two) were each no faster or slower.
 
+use std::ops::IndexMut;
+
 use faer::sparse::SparseColMatRef;
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, SymbolicCholeskyRaw, SymmetricOrdering, factorize_symbolic_cholesky,
 };
-use std::ops::IndexMut;
-
 use faer::{Par, Side};
 
 use super::LinalgError;
