@@ -25,7 +25,7 @@ impl Padded {
     }
 
     /// `self − v s`, each lane one fused multiply-add: a single instruction in a kernel compiled
-    /// for FMA ([`super::isa`]), a (slow) library call where the CPU has none.
+    /// for AVX2 + FMA ([`super::isa`]), a (slow, equally exact) library call outside one.
     #[inline(always)]
     pub fn minus_scaled(self, v: Self, s: f64) -> Self {
         let ([a, b, c, d], [e, g, h, k]) = (self.0, v.0);

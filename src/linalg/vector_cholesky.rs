@@ -12,9 +12,9 @@
 //! are 16-bit and the solution a fixed-size array, so the gathers need no bounds checks; larger
 //! systems take 32-bit indices and checked gathers. The loops are compiled for AVX2 + FMA where the
 //! CPU has them ([`super::isa`]). A solve reads the factor twice and allocates nothing. Measured on
-//! the creature's 13k-vertex Laplacian (one core, AVX-512 Xeon): 0.51 ms for the three coordinates
-//! (0.71 ms before the backward pass streamed forwards and the gathers lost their bounds checks and
-//! separate multiplies), where faer's own solve with three columns takes 1.1 ms (simplicial) or
+//! the creature's 13k-vertex Laplacian (one core, AVX-512 Xeon): 0.52 ms for the three coordinates
+//! and copying them out (0.71 ms before the backward pass streamed forwards and the gathers lost
+//! their bounds checks and separate multiplies), where faer's own solve with three columns takes 1.1 ms (simplicial) or
 //! 1.5 ms (supernodal); geometric nested dissection gives 5% more fill here, and a 16% slower solve;
 //! eight sums, two sums and a backward pass scattering from the rows (one copy of the factor instead
 //! of two) were each no faster or slower.
@@ -46,6 +46,7 @@ trait FactorIndex: Copy + Default + std::fmt::Debug + PartialEq {
 impl FactorIndex for u16 {
     #[inline(always)]
     fn narrow(i: u32) -> Self {
+        debug_assert!(i < 1 << 16, "{i} does not fit 16 bits");
         i as u16
     }
     #[inline(always)]
@@ -94,12 +95,23 @@ impl Compressed<u32> {
 }
 
 /// The rows and the reversed columns of the factor, and the right side and solution.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Clone, PartialEq)]
 enum Lines {
     /// At most [`SHORT`] unknowns (the array's tail past them unused).
     Short { rows: Compressed<u16>, columns: Compressed<u16>, x: Box<[Padded; SHORT]> },
     /// More.
     Long { rows: Compressed<u32>, columns: Compressed<u32>, x: Vec<Padded> },
+}
+
+impl std::fmt::Debug for Lines {
+    /// The index width and sizes (not the 65,536-entry array).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (width, rows, columns) = match self {
+            Lines::Short { rows, columns, .. } => (16, rows.index.len(), columns.index.len()),
+            Lines::Long { rows, columns, .. } => (32, rows.index.len(), columns.index.len()),
+        };
+        write!(f, "Lines {{ index_bits: {width}, row_entries: {rows}, column_entries: {columns} }}")
+    }
 }
 
 /// The factor and a right side of 3-vectors, solved in place.
@@ -337,5 +349,41 @@ mod tests {
         )
         .unwrap();
         assert!(VectorCholesky::new(bad.as_ref()).is_err());
+    }
+
+    #[test]
+    fn the_largest_system_with_16_bit_indices_solves_as_with_32_bit_ones() {
+        // A path graph's Laplacian plus a shift, with exactly 65,536 unknowns: the factor's last
+        // indices are 65,535, the largest 16 bits hold. Its exact solution for b = A·x is x.
+        let n = SHORT;
+        let mut entries = Vec::new();
+        for i in 0..n {
+            entries.push(Triplet::new(i, i, 2.5));
+            if i + 1 < n {
+                entries.push(Triplet::new(i, i + 1, -1.0));
+            }
+        }
+        let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &entries).unwrap();
+        let want: Vec<DVec3> = (0..n).map(|i| DVec3::new((0.01 * i as f64).sin(), 1.0, (i % 7) as f64)).collect();
+        let b: Vec<DVec3> = (0..n)
+            .map(|i| {
+                let side = |j: Option<usize>| j.and_then(|j| want.get(j)).copied().unwrap_or(DVec3::ZERO);
+                want[i] * 2.5 - side(i.checked_sub(1)) - side(Some(i + 1))
+            })
+            .collect();
+        let mut solutions = Vec::new();
+        for short in [SHORT, 0] {
+            let mut chol = VectorCholesky::with_short_limit(a.as_ref(), short).unwrap();
+            assert_eq!(matches!(chol.lines, Lines::Short { .. }), short > 0, "{:?}", chol.lines);
+            let order = chol.order().to_vec();
+            chol.rhs_mut().iter_mut().zip(&order).for_each(|(x, &i)| *x = b[i].into());
+            chol.solve();
+            let worst = (chol.solution().iter().zip(&order))
+                .map(|(got, &i)| (DVec3::from(*got) - want[i]).length())
+                .fold(0.0, f64::max);
+            assert!(worst < 1e-12, "{short}: off by {worst:.1e}");
+            solutions.push(chol.solution().to_vec());
+        }
+        assert_eq!(solutions[0], solutions[1], "both index widths, bit for bit");
     }
 }
