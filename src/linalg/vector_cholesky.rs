@@ -77,9 +77,9 @@ struct Compressed<I> {
 
 impl Compressed<u32> {
     /// The same lines with their indices in `I` (each must fit).
-    fn narrow<I: FactorIndex>(&self) -> Compressed<I> {
+    fn narrow<I: FactorIndex>(self) -> Compressed<I> {
         let index = self.index.iter().map(|&i| I::narrow(i)).collect();
-        Compressed { start: self.start.clone(), index, value: self.value.clone() }
+        Compressed { start: self.start, index, value: self.value }
     }
 
     /// The same lines, last first.
@@ -120,7 +120,6 @@ pub struct VectorCholesky {
     order: Vec<usize>,
     lines: Lines,
     inverse_diagonal: Vec<f64>,
-    entries: usize,
 }
 
 impl VectorCholesky {
@@ -191,7 +190,7 @@ impl VectorCholesky {
         }
         // The backward pass visits the columns last to first: stored in that order, it streams the
         // factor forwards through memory as the forward pass does.
-        let (columns, entries) = (columns.reversed(), columns.index.len() + n);
+        let columns = columns.reversed();
         let lines = if n <= short.min(SHORT) {
             let x = vec![Padded::ZERO; SHORT]
                 .into_boxed_slice()
@@ -201,7 +200,7 @@ impl VectorCholesky {
         } else {
             Lines::Long { rows, columns, x: vec![Padded::ZERO; n] }
         };
-        Ok(Self { order, lines, inverse_diagonal, entries })
+        Ok(Self { order, lines, inverse_diagonal })
     }
 
     /// Number of unknowns.
@@ -217,7 +216,11 @@ impl VectorCholesky {
 
     /// Entries of the factor (with the diagonal).
     pub fn factor_entries(&self) -> usize {
-        self.entries
+        let below = match &self.lines {
+            Lines::Short { rows, .. } => rows.index.len(),
+            Lines::Long { rows, .. } => rows.index.len(),
+        };
+        below + self.dim()
     }
 
     /// The right side (one 3-vector per unknown, in the factor's [`VectorCholesky::order`]), to fill
