@@ -1,9 +1,9 @@
 //! Hot loops compiled for the best instruction set of the CPU they run on.
 //!
 //! The crate is built for the baseline x86-64 (SSE2, no FMA) so that the binary runs anywhere; a
-//! [`Kernel`] run through [`avx2`] (or a `pulp::WithSimd` through [`avx2_lanes`]) is compiled a
-//! second time for AVX2 + FMA and the version the CPU supports is chosen at run time by [`pulp`];
-//! loops dispatched by `pulp::Arch` directly get AVX-512 where the CPU has it. Only code inlined into
+//! [`Kernel`] run through [`avx2`] is compiled a second time for AVX2 + FMA and the version the CPU
+//! supports is chosen at run time by [`pulp`]; loops dispatched by `pulp::Arch` directly get AVX-512
+//! where the CPU has it. Only code inlined into
 //! the kernel gets the wider instructions, so [`Kernel::run`] and the functions it calls are marked
 //! `#[inline(always)]` (a closure would not be inlined into the dispatched function). Results are
 //! unchanged: Rust never fuses or reorders floating-point operations on its own.
@@ -30,19 +30,9 @@ pub fn avx2<K: Kernel>(kernel: K) -> K::Output {
             self.0.run()
         }
     }
-    avx2_lanes(Run(kernel))
-}
-
-/// Run `op`, generic over the lane count, with AVX2 + FMA's lanes where the CPU has them (else the
-/// best it has), for loops that measured slower on AVX-512: the position-based sweeps, whose
-/// constraints gather their particles lane by lane (single precision, eight lanes against sixteen:
-/// the 961-particle drape, falling, 1.75 ms a frame against 2.20 ms; a 10,000-particle sheet gains
-/// 7% on AVX-512, the drape's colours are too short for sixteen). Loops that stream wide rows (the
-/// modal passes) are dispatched by `pulp::Arch` to the widest set instead.
-pub fn avx2_lanes<Op: pulp::WithSimd>(op: Op) -> Op::Output {
     #[cfg(target_arch = "x86_64")]
     if let Some(simd) = pulp::x86::V3::try_new() {
-        return pulp::Simd::vectorize(simd, op);
+        return pulp::Simd::vectorize(simd, Run(kernel));
     }
-    pulp::Arch::new().dispatch(op)
+    pulp::Arch::new().dispatch(Run(kernel))
 }

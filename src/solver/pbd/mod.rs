@@ -23,6 +23,7 @@
 //! Anchored and dragged particles have infinite mass (a dragged one is placed at its target).
 //! Collisions: `contact`; self-collision: `self_collision`; bodies: `bodies`.
 
+mod batch;
 mod bodies;
 mod contact;
 mod model;
@@ -34,6 +35,7 @@ use std::time::Instant;
 
 use glam::{DQuat, DVec3};
 
+use self::batch::{LANES, Row};
 use self::bodies::Rigid;
 use self::contact::{SampleHit, Touch};
 use self::model::Model;
@@ -175,8 +177,9 @@ pub struct Pbd {
     k_s: f64,
     k_b: f64,
     // Scratch.
-    lambda_edges: Vec<f64>,
-    lambda_bends: Vec<f64>,
+    rows: Vec<Row>,
+    lambda_edges: Vec<[f64; LANES]>,
+    lambda_bends: Vec<[f64; LANES]>,
     gradient: Vec<DVec3>,
     touches: Vec<Touch>,
     samples: Vec<SampleHit>,
@@ -242,8 +245,9 @@ impl Pbd {
             compliance: (m.compliance_stretch, m.compliance_bend),
             k_s: check("k_s", m.k_s)?,
             k_b: check("k_b", m.k_b)?,
-            lambda_edges: vec![0.0; model.edges.len()],
-            lambda_bends: vec![0.0; model.bends.len()],
+            rows: Vec::with_capacity(model.rest.len()),
+            lambda_edges: vec![[0.0; LANES]; model.edge_batches.batches.len()],
+            lambda_bends: vec![[0.0; LANES]; model.bend_batches.batches.len()],
             gradient: vec![DVec3::ZERO; n],
             touches: Vec::new(),
             samples: Vec::new(),
@@ -329,47 +333,40 @@ impl Pbd {
             b.predict(t, h, self.gravity);
         }
         self.detect(h);
-        self.lambda_edges.fill(0.0);
-        self.lambda_bends.fill(0.0);
+        self.lambda_edges.fill([0.0; LANES]);
+        self.lambda_bends.fill([0.0; LANES]);
         let (alpha_stretch, alpha_bend) = self.compliances();
         let sweeps = self.sweeps as f64;
         let correction = |k: f64| 1.0 - (1.0 - k).powf(1.0 / sweeps);
         for _ in 0..self.sweeps {
-            let (p, w, m) = (&mut self.p, &self.w, &self.model);
+            batch::fill_rows(&self.p, &self.w, &mut self.rows);
+            let (rows, m) = (&mut self.rows, &self.model);
             let (edges, bends) = (&mut self.lambda_edges, &mut self.lambda_bends);
             match self.variant {
                 Variant::Pbd => {
                     let (stretch, bend) =
                         (Stiffness(correction(self.stiffness.0)), Stiffness(correction(self.stiffness.1)));
-                    project::stretch(
-                        &m.edges,
-                        &m.edge_colours,
-                        Sweep { p, w, lambda: edges, compliance: 0.0, rule: stretch },
-                    );
+                    project::stretch(&m.edge_batches, Sweep { rows, lambda: edges, compliance: 0.0, rule: stretch });
                     if bend.0 > 0.0 {
-                        project::bend(
-                            &m.bends,
-                            &m.bend_colours,
-                            Sweep { p, w, lambda: bends, compliance: 0.0, rule: bend },
-                        );
+                        project::bend(&m.bend_batches, Sweep { rows, lambda: bends, compliance: 0.0, rule: bend });
                     }
                 }
                 Variant::Xpbd => {
                     let (stretch, bend) = (alpha_stretch / (h * h), alpha_bend / (h * h));
                     project::stretch(
-                        &m.edges,
-                        &m.edge_colours,
-                        Sweep { p, w, lambda: edges, compliance: stretch, rule: Compliance },
+                        &m.edge_batches,
+                        Sweep { rows, lambda: edges, compliance: stretch, rule: Compliance },
                     );
                     if bend.is_finite() {
                         project::bend(
-                            &m.bends,
-                            &m.bend_colours,
-                            Sweep { p, w, lambda: bends, compliance: bend, rule: Compliance },
+                            &m.bend_batches,
+                            Sweep { rows, lambda: bends, compliance: bend, rule: Compliance },
                         );
                     }
                 }
             }
+            batch::read_rows(&self.rows, &mut self.p);
+            let (p, w) = (&mut self.p, &self.w);
             if let (Some(v0), true) = (self.model.six_volume, self.k_pressure > 0.0) {
                 project::volume(&self.model.triangles, p, w, self.k_pressure * v0, &mut self.gradient);
             }

@@ -5,6 +5,7 @@
 
 use glam::DVec3;
 
+use super::batch::{Batches, Packable};
 use crate::energy::constraints::{self, RestAngle};
 use crate::energy::hinge;
 use crate::scene::Setup;
@@ -31,6 +32,30 @@ pub struct Bend {
     pub inverse_weight: f64,
 }
 
+impl Packable<2> for Edge {
+    fn particles(&self) -> [usize; 2] {
+        self.v
+    }
+    fn constants(&self) -> [f64; 2] {
+        [self.rest, 0.0]
+    }
+    fn factor(&self) -> f64 {
+        1.0
+    }
+}
+
+impl Packable<4> for Bend {
+    fn particles(&self) -> [usize; 4] {
+        self.v
+    }
+    fn constants(&self) -> [f64; 2] {
+        [self.rest.cos, self.rest.sin]
+    }
+    fn factor(&self) -> f64 {
+        self.inverse_weight
+    }
+}
+
 /// The constraint set and masses of a scene's mesh.
 #[derive(Debug, Clone)]
 pub struct Model {
@@ -46,12 +71,11 @@ pub struct Model {
     pub loads: Vec<DVec3>,
     /// Stretch constraints.
     pub edges: Vec<Edge>,
-    /// Where each colour of `edges` begins (and the end): no two edges of a colour share a particle.
-    pub edge_colours: Vec<usize>,
-    /// Bending constraints.
-    pub bends: Vec<Bend>,
-    /// Where each colour of `bends` begins (and the end).
-    pub bend_colours: Vec<usize>,
+    /// The stretch constraints packed for the sweeps, in colours (no two edges of a colour share a
+    /// particle).
+    pub edge_batches: Batches<2>,
+    /// The bending constraints packed for the sweeps, in colours.
+    pub bend_batches: Batches<4>,
     /// Six times the rest volume, for a closed mesh (`None`: the mesh has a boundary).
     pub six_volume: Option<f64>,
     /// Mean rest edge length, m.
@@ -63,6 +87,12 @@ impl Model {
     pub fn new(setup: &Setup) -> Result<Self, SolverError> {
         let mesh = &setup.mesh;
         let rest = mesh.positions().to_vec();
+        if u32::try_from(rest.len()).is_err() {
+            return Err(SolverError::Unsuitable {
+                method: "pbd",
+                reason: format!("{} particles: the sweeps index at most 2³² of them", rest.len()),
+            });
+        }
         let topo = mesh.topology();
         let edges: Vec<Edge> =
             topo.edges.iter().map(|e| Edge { v: e.v, rest: (rest[e.v[0]] - rest[e.v[1]]).length() }).collect();
@@ -99,10 +129,9 @@ impl Model {
             anchored: setup.anchored_mask(),
             loads: setup.loads.clone(),
             rest,
+            edge_batches: Batches::new(&edges, &edge_colours),
+            bend_batches: Batches::new(&bends, &bend_colours),
             edges,
-            edge_colours,
-            bends,
-            bend_colours,
             six_volume,
             mean_edge,
         })

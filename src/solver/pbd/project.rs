@@ -4,12 +4,15 @@
 //!
 //! Edges and hinges come in colours (no two of a colour share a particle, [`super::model`]), so the
 //! constraints of a colour are independent: projecting them one after another or all at once gives
-//! the same positions. The sweeps take them eight at a time where the CPU has AVX2
-//! ([`crate::linalg::isa::avx2_lanes`]; sixteen, on AVX-512, measured slower), in single precision
-//! ([`Lanes32`]): gather their particles relative to each constraint's first (so the lanes hold
-//! differences of the size of an edge, to a relative 6e-8), evaluate the constraint functions — the
-//! same source the scalar ones are ([`Real`]) — on all lanes at once, and add the corrections to the
-//! double-precision positions and multipliers.
+//! the same positions. The sweeps take them eight at a time where the CPU has AVX2, in single
+//! precision ([`Lanes32`]), from batches packed once ([`super::batch`]): each lane's particle rows
+//! (position and inverse mass, 32 bytes) are loaded whole, made relative to the lane's first particle
+//! in double precision (so the lanes hold differences of the size of an edge, to a relative 6e-8),
+//! narrowed and transposed into registers of x, y, z and inverse mass; the constraint functions — the
+//! same source the scalar ones are ([`Real`]) — run on all lanes at once; and the moves are transposed
+//! back and added to the rows in double precision, as are the multipliers. Sixteen lanes (AVX-512)
+//! would need as many shuffles per lane. A CPU without AVX2 runs the same arithmetic one lane at a
+//! time.
 
 use std::marker::PhantomData;
 
@@ -17,6 +20,7 @@ use glam::DVec3;
 
 use pulp::Simd;
 
+use super::batch::{Batches, LANES, Row};
 use super::model::{Bend, Edge};
 use crate::energy::constraints;
 use crate::linalg::real::{self, Lanes32, Real, V3};
@@ -52,53 +56,56 @@ impl Rule for Compliance {
 
 /// What a sweep needs besides its constraints.
 pub struct Sweep<'a, R> {
-    /// Predicted positions, corrected in place.
-    pub p: &'a mut [DVec3],
-    /// Inverse masses.
-    pub w: &'a [f64],
-    /// One multiplier per constraint, accumulated over the substep's iterations.
-    pub lambda: &'a mut [f64],
+    /// Predicted positions and inverse masses, the positions corrected in place.
+    pub rows: &'a mut [Row],
+    /// One multiplier per constraint (at its batch and lane), accumulated over the substep's
+    /// iterations.
+    pub lambda: &'a mut [[f64; LANES]],
     /// `α/h²` (a hinge's is this times its inverse weight).
     pub compliance: f64,
     /// PBD or XPBD.
     pub rule: R,
 }
 
-/// Project every edge to its rest length; `colours` are where the edges' colours begin.
-pub fn stretch<R: Rule>(edges: &[Edge], colours: &[usize], sweep: Sweep<'_, R>) {
-    crate::linalg::isa::avx2_lanes(Constraints::<_, _, 2> { items: edges, colours, sweep, particles: PhantomData });
+/// Project every edge to its rest length.
+pub fn stretch<R: Rule>(edges: &Batches<2>, sweep: Sweep<'_, R>) {
+    run::<Edge, R, 2>(edges, sweep, Path::Fastest)
 }
 
-/// Project every hinge to its rest angle; `colours` are where the hinges' colours begin.
-pub fn bend<R: Rule>(bends: &[Bend], colours: &[usize], sweep: Sweep<'_, R>) {
-    crate::linalg::isa::avx2_lanes(Constraints::<_, _, 4> { items: bends, colours, sweep, particles: PhantomData });
+/// Project every hinge to its rest angle.
+pub fn bend<R: Rule>(bends: &Batches<4>, sweep: Sweep<'_, R>) {
+    run::<Bend, R, 4>(bends, sweep, Path::Fastest)
 }
 
-/// A constraint over `K` particles.
-trait Lane<const K: usize>: Copy {
-    /// Its particles.
-    fn particles(&self) -> [usize; K];
-    /// The constants of its function (a rest length, a rest angle's cosine and sine).
-    fn constants(&self) -> [f64; 2];
-    /// Its scaled compliance, given the sweep's.
-    fn compliance(&self, sweep: f64) -> f64;
-    /// `C` and `∇C` at `x`, for numbers or lanes.
+/// Which code runs a sweep.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Path {
+    /// Eight lanes at once where the CPU has AVX2, else one at a time.
+    Fastest,
+    /// One lane at a time (what a CPU without AVX2 runs; the tests compare the two).
+    #[cfg_attr(not(test), allow(dead_code))]
+    Portable,
+}
+
+fn run<T: Lane<K>, R: Rule, const K: usize>(batches: &Batches<K>, sweep: Sweep<'_, R>, path: Path) {
+    let kernel = Constraints::<T, R, K> { batches, sweep, kind: PhantomData };
+    #[cfg(target_arch = "x86_64")]
+    if path == Path::Fastest
+        && let Some(simd) = pulp::x86::V3::try_new()
+    {
+        return pulp::Simd::vectorize(simd, Avx2(kernel, simd));
+    }
+    let _ = path;
+    kernel.one_by_one()
+}
+
+/// A constraint over `K` particles, as the sweeps evaluate it.
+trait Lane<const K: usize> {
+    /// `C` and `∇C` at `x` (`x[0]` at the origin), for numbers or lanes, given its constants.
     fn evaluate<N: Real>(x: &[V3<N>; K], constants: [N; 2]) -> (N, [V3<N>; K]);
 }
 
 impl Lane<2> for Edge {
-    #[inline(always)]
-    fn particles(&self) -> [usize; 2] {
-        self.v
-    }
-    #[inline(always)]
-    fn constants(&self) -> [f64; 2] {
-        [self.rest, 0.0]
-    }
-    #[inline(always)]
-    fn compliance(&self, sweep: f64) -> f64 {
-        sweep
-    }
     #[inline(always)]
     fn evaluate<N: Real>(x: &[V3<N>; 2], constants: [N; 2]) -> (N, [V3<N>; 2]) {
         let (c, n) = constraints::stretch_of(x[0], x[1], constants[0]);
@@ -108,112 +115,179 @@ impl Lane<2> for Edge {
 
 impl Lane<4> for Bend {
     #[inline(always)]
-    fn particles(&self) -> [usize; 4] {
-        self.v
-    }
-    #[inline(always)]
-    fn constants(&self) -> [f64; 2] {
-        [self.rest.cos, self.rest.sin]
-    }
-    #[inline(always)]
-    fn compliance(&self, sweep: f64) -> f64 {
-        sweep * self.inverse_weight
-    }
-    #[inline(always)]
     fn evaluate<N: Real>(x: &[V3<N>; 4], constants: [N; 2]) -> (N, [V3<N>; 4]) {
         constraints::bending_of(x, constants[0], constants[1])
     }
 }
 
-/// A sweep over coloured constraints of `K` particles each, as a kernel for [`pulp`]'s dispatch.
-struct Constraints<'a, T, R, const K: usize> {
-    items: &'a [T],
-    colours: &'a [usize],
-    sweep: Sweep<'a, R>,
-    particles: PhantomData<[(); K]>,
+/// What a batch's lanes read: each particle relative to its constraint's first, and its inverse
+/// mass; the constants, multipliers and scaled compliances.
+struct Read<N, const K: usize> {
+    x: [V3<N>; K],
+    w: [N; K],
+    constants: [N; 2],
+    lambda: N,
+    compliance: N,
 }
 
-impl<const K: usize, T: Lane<K>, R: Rule> pulp::WithSimd for Constraints<'_, T, R, K> {
+/// The projection of a batch's lanes: `Δλ`, and each particle's move `w_i ∇_i C Δλ`.
+#[inline(always)]
+fn project<T: Lane<K>, R: Rule, N: Real, const K: usize>(read: Read<N, K>, rule: R) -> (N, [V3<N>; K]) {
+    let (c, g) = T::evaluate(&read.x, read.constants);
+    let zero = c.constant(0.0);
+    let denominator = (0..K).fold(zero, |sum, j| sum + read.w[j] * real::dot(g[j], g[j]));
+    let delta = rule.delta(c, denominator, read.compliance, read.lambda);
+    // A constraint without movable particles, or degenerate, is left alone.
+    let delta = N::select(zero.less(denominator), delta, zero);
+    let delta = N::select(delta.abs().less(c.constant(f64::INFINITY)), delta, zero);
+    (delta, std::array::from_fn(|j| real::scale(g[j], read.w[j] * delta)))
+}
+
+/// A sweep over batches of constraints of `K` particles, as a kernel for [`pulp`]'s dispatch.
+struct Constraints<'a, T, R, const K: usize> {
+    batches: &'a Batches<K>,
+    sweep: Sweep<'a, R>,
+    kind: PhantomData<T>,
+}
+
+impl<T: Lane<K>, R: Rule, const K: usize> Constraints<'_, T, R, K> {
+    /// The sweep, one lane at a time, in the same single precision.
+    #[inline(always)]
+    fn one_by_one(self) {
+        let Sweep { rows, lambda, compliance, rule } = self.sweep;
+        for (batch, lambda) in self.batches.batches.iter().zip(lambda.iter_mut()) {
+            for k in 0..batch.count {
+                let origin = rows[batch.ids[0][k] as usize].0;
+                let row = |j: usize| rows[batch.ids[j][k] as usize].0;
+                let one = |v: f64| Lanes32 { simd: pulp::Scalar::new(), v: v as f32 };
+                let read = Read::<_, K> {
+                    x: std::array::from_fn(|j| std::array::from_fn(|a| one(row(j)[a] - origin[a]))),
+                    w: std::array::from_fn(|j| one(row(j)[3])),
+                    constants: batch.constants.map(|c| one(f64::from(c[k]))),
+                    lambda: one(lambda[k]),
+                    compliance: one(compliance * batch.factors[k]),
+                };
+                let (delta, steps) = project::<T, R, _, K>(read, rule);
+                lambda[k] += f64::from(delta.v);
+                for (j, step) in steps.iter().enumerate() {
+                    let row = &mut rows[batch.ids[j][k] as usize].0;
+                    (0..3).for_each(|a| row[a] += f64::from(step[a].v));
+                }
+            }
+        }
+    }
+}
+/// The eight-lane sweep, as a kernel for [`pulp`]'s dispatch (which compiles it for AVX2 + FMA).
+#[cfg(target_arch = "x86_64")]
+struct Avx2<'a, T, R, const K: usize>(Constraints<'a, T, R, K>, pulp::x86::V3);
+
+#[cfg(target_arch = "x86_64")]
+impl<T: Lane<K>, R: Rule, const K: usize> pulp::WithSimd for Avx2<'_, T, R, K> {
     type Output = ();
 
     #[inline(always)]
-    fn with_simd<S: Simd>(self, simd: S) {
-        // The lane count as a constant, so the gathers build vectors in registers.
-        match S::F32_LANES {
-            16 => self.lanes::<S, 16>(simd),
-            8 => self.lanes::<S, 8>(simd),
-            4 => self.lanes::<S, 4>(simd),
-            _ => self.lanes::<S, 1>(simd),
+    fn with_simd<S: Simd>(self, _: S) {
+        use eight::{gather, narrow, scatter};
+        use pulp::cast;
+        use std::arch::x86_64::{__m256, __m256d};
+        let Avx2(kernel, simd) = self;
+        let avx = simd.avx;
+        let Sweep { rows, lambda, compliance, rule } = kernel.sweep;
+        let lanes = |v: __m256| Lanes32 { simd, v: cast(v) };
+        let lane_index = lanes(cast([0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]));
+        let scaled = avx._mm256_set1_pd(compliance);
+        for (batch, lambda) in kernel.batches.batches.iter().zip(lambda.iter_mut()) {
+            // Each lane's origin: its first particle, with no inverse mass to subtract.
+            let origins: [__m256d; LANES] = std::array::from_fn(|k| {
+                avx._mm256_blend_pd::<0b1000>(cast(rows[batch.ids[0][k] as usize].0), avx._mm256_setzero_pd())
+            });
+            let slots: [[__m256; 4]; K] = std::array::from_fn(|j| gather(simd, rows, &batch.ids[j], &origins));
+            let halves =
+                |v: &[f64; LANES]| -> [__m256d; 2] { [cast([v[0], v[1], v[2], v[3]]), cast([v[4], v[5], v[6], v[7]])] };
+            let (factors, multipliers) = (halves(&batch.factors), halves(lambda));
+            let read = Read::<_, K> {
+                x: std::array::from_fn(|j| std::array::from_fn(|a| lanes(slots[j][a]))),
+                w: std::array::from_fn(|j| lanes(slots[j][3])),
+                constants: batch.constants.map(|c| lanes(cast(c))),
+                lambda: lanes(narrow(simd, multipliers)),
+                compliance: lanes(narrow(simd, factors.map(|f| avx._mm256_mul_pd(f, scaled)))),
+            };
+            let (delta, steps) = project::<T, R, _, K>(read, rule);
+            // Lanes past the batch's count add nothing to their multipliers.
+            let real = lane_index.less(lanes(avx._mm256_set1_ps(batch.count as f32)));
+            let delta: __m256 = cast(Lanes32::select(real, delta, lanes(avx._mm256_setzero_ps())).v);
+            let wide = [
+                avx._mm256_cvtps_pd(avx._mm256_castps256_ps128(delta)),
+                avx._mm256_cvtps_pd(avx._mm256_extractf128_ps::<1>(delta)),
+            ];
+            let sums: [[f64; 4]; 2] = [0, 1].map(|h| cast(avx._mm256_add_pd(multipliers[h], wide[h])));
+            *lambda = std::array::from_fn(|k| sums[k / 4][k % 4]);
+            for (j, step) in steps.iter().enumerate() {
+                scatter(simd, rows, &batch.ids[j], batch.count, step.map(|s| cast(s.v)));
+            }
         }
     }
 }
 
-impl<const K: usize, T: Lane<K>, R: Rule> Constraints<'_, T, R, K> {
-    /// The sweep, `L` (= `S::F32_LANES`) constraints at a time.
+/// The eight-lane sweep's moves between a batch's particle rows and its lanes.
+#[cfg(target_arch = "x86_64")]
+mod eight {
+    use std::arch::x86_64::{__m128, __m256, __m256d};
+
+    use pulp::cast;
+    use pulp::x86::V3;
+
+    use super::{LANES, Row};
+
+    /// `[lo, hi]` (four doubles each) as eight singles.
     #[inline(always)]
-    fn lanes<S: Simd, const L: usize>(self, simd: S) {
-        let Sweep { p, w, lambda, compliance, rule } = self.sweep;
-        let gather = |value: [f32; L]| Lanes32::<S>::load(simd, &value);
-        for colour in self.colours.windows(2) {
-            let mut start = colour[0];
-            while start < colour[1] {
-                let count = (colour[1] - start).min(L);
-                let group = &self.items[start..start + count];
-                // Gather (lanes past the colour's end repeat its last constraint and are not
-                // scattered).
-                let mut ids = [[0usize; K]; L];
-                let mut x = [[[0.0f32; L]; 3]; K];
-                let (mut ws, mut constants) = ([[0.0f32; L]; K], [[0.0f32; L]; 2]);
-                let (mut lambdas, mut compliances) = ([0.0f32; L], [0.0f32; L]);
-                for k in 0..L {
-                    let item = &group[k.min(count - 1)];
-                    ids[k] = item.particles();
-                    let origin = p[ids[k][0]];
-                    for j in 0..K {
-                        let q = p[ids[k][j]] - origin;
-                        (x[j][0][k], x[j][1][k], x[j][2][k]) = (q.x as f32, q.y as f32, q.z as f32);
-                        ws[j][k] = w[ids[k][j]] as f32;
-                    }
-                    let [a, b] = item.constants();
-                    (constants[0][k], constants[1][k]) = (a as f32, b as f32);
-                    lambdas[k] = lambda[start + k.min(count - 1)] as f32;
-                    compliances[k] = item.compliance(compliance) as f32;
-                }
-                let mut xs = [[gather([0.0; L]); 3]; K];
-                let mut wl = [gather([0.0; L]); K];
-                for j in 0..K {
-                    for a in 0..3 {
-                        xs[j][a] = gather(x[j][a]);
-                    }
-                    wl[j] = gather(ws[j]);
-                }
-                let constants = [gather(constants[0]), gather(constants[1])];
-                let (lambdas, compliances) = (gather(lambdas), gather(compliances));
-                // Evaluate all lanes at once.
-                let (c, g) = T::evaluate(&xs, constants);
-                let zero = c.constant(0.0);
-                let denominator = (0..K).fold(zero, |sum, j| sum + wl[j] * real::dot(g[j], g[j]));
-                let delta = rule.delta(c, denominator, compliances, lambdas);
-                // A constraint without movable particles, or degenerate, is left alone.
-                let delta = Lanes32::select(zero.less(denominator), delta, zero);
-                let delta = Lanes32::select(delta.abs().less(c.constant(f64::INFINITY)), delta, zero);
-                let mut deltas = [0.0f32; L];
-                delta.store(&mut deltas);
-                let mut steps = [[[0.0f32; L]; 3]; K];
-                for j in 0..K {
-                    let step = real::scale(g[j], wl[j] * delta);
-                    (0..3).for_each(|a| step[a].store(&mut steps[j][a]));
-                }
-                // Scatter.
-                for k in 0..count {
-                    lambda[start + k] += f64::from(deltas[k]);
-                    for j in 0..K {
-                        let [sx, sy, sz] = [0, 1, 2].map(|a| f64::from(steps[j][a][k]));
-                        p[ids[k][j]] += DVec3::new(sx, sy, sz);
-                    }
-                }
-                start += count;
-            }
+    pub fn narrow(simd: V3, [lo, hi]: [__m256d; 2]) -> __m256 {
+        let avx = simd.avx;
+        avx._mm256_insertf128_ps::<1>(avx._mm256_castps128_ps256(avx._mm256_cvtpd_ps(lo)), avx._mm256_cvtpd_ps(hi))
+    }
+
+    /// The four-by-four transposes of `a` (each register two blocks of four lanes).
+    #[inline(always)]
+    fn transpose(simd: V3, a: [__m256; 4]) -> [__m256; 4] {
+        let avx = simd.avx;
+        let t: [__m256d; 4] = [
+            cast(avx._mm256_unpacklo_ps(a[0], a[1])),
+            cast(avx._mm256_unpackhi_ps(a[0], a[1])),
+            cast(avx._mm256_unpacklo_ps(a[2], a[3])),
+            cast(avx._mm256_unpackhi_ps(a[2], a[3])),
+        ];
+        [
+            cast(avx._mm256_unpacklo_pd(t[0], t[2])),
+            cast(avx._mm256_unpackhi_pd(t[0], t[2])),
+            cast(avx._mm256_unpacklo_pd(t[1], t[3])),
+            cast(avx._mm256_unpackhi_pd(t[1], t[3])),
+        ]
+    }
+
+    /// The rows `ids` relative to each lane's origin, in single precision, as registers of x, y, z
+    /// and inverse mass.
+    #[inline(always)]
+    pub fn gather(simd: V3, rows: &[Row], ids: &[u32; LANES], origins: &[__m256d; LANES]) -> [__m256; 4] {
+        let avx = simd.avx;
+        let r: [__m128; LANES] =
+            std::array::from_fn(|k| avx._mm256_cvtpd_ps(avx._mm256_sub_pd(cast(rows[ids[k] as usize].0), origins[k])));
+        // Lanes k and k + 4 side by side: x y z w | x y z w.
+        transpose(
+            simd,
+            std::array::from_fn(|k| avx._mm256_insertf128_ps::<1>(avx._mm256_castps128_ps256(r[k]), r[k + 4])),
+        )
+    }
+
+    /// Add the moves `[x, y, z]` of the first `count` lanes to the rows `ids`, in double precision.
+    #[inline(always)]
+    pub fn scatter(simd: V3, rows: &mut [Row], ids: &[u32; LANES], count: usize, [x, y, z]: [__m256; 3]) {
+        let avx = simd.avx;
+        // Lanes k and k + 4 of a[k]: x y z 0 | x y z 0.
+        let a = transpose(simd, [x, y, z, avx._mm256_setzero_ps()]);
+        for (k, &i) in ids.iter().enumerate().take(count) {
+            let half = if k < 4 { avx._mm256_castps256_ps128(a[k]) } else { avx._mm256_extractf128_ps::<1>(a[k - 4]) };
+            let row = &mut rows[i as usize];
+            row.0 = cast(avx._mm256_add_pd(cast(row.0), avx._mm256_cvtps_pd(half)));
         }
     }
 }
@@ -233,6 +307,7 @@ pub fn volume(triangles: &[[usize; 3]], p: &mut [DVec3], w: &[f64], target: f64,
 mod tests {
     use super::*;
     use crate::energy::constraints::RestAngle;
+    use crate::solver::pbd::batch;
 
     /// `n` disjoint groups of four particles (a hinge each), bent and stretched off their rest state,
     /// 100 m from the origin (where an `f32` position would be good to only 4 µm), and their inverse
@@ -263,7 +338,8 @@ mod tests {
     }
 
     /// The single-precision sweep moves each particle as the double-precision formula does, to a
-    /// relative 1e-5 of the move, far from the origin too.
+    /// relative 1e-5 of the move, far from the origin too; the eight-lane path (where the CPU has
+    /// AVX2) and the one-lane path give the same bits.
     #[test]
     fn the_single_precision_sweep_agrees_with_double_precision() {
         let n = 37;
@@ -276,37 +352,58 @@ mod tests {
             })
             .collect();
         let edges: Vec<Edge> = (0..n).map(|k| Edge { v: [4 * k, 4 * k + 2], rest: 0.009 }).collect();
+        // Two colours, so that each ends in a part-filled batch.
+        let colours = [0, 20, n];
+        let (bent, stretched) = (Batches::new(&bends, &colours), Batches::new(&edges, &colours));
         let compliance = 2.0e3;
+        // Each constraint's batch and lane.
+        let lane = |k: usize| if k < 20 { (k / LANES, k % LANES) } else { (3 + (k - 20) / LANES, (k - 20) % LANES) };
         for case in ["bend", "stretch"] {
-            let mut p = start.clone();
-            let mut lambda: Vec<f64> = (0..n).map(|k| 1e-6 * k as f64).collect();
-            let before = lambda.clone();
-            let colours = [0, n];
-            let sweep = Sweep { p: &mut p, w: &w, lambda: &mut lambda, compliance, rule: Compliance };
-            if case == "bend" {
-                bend(&bends, &colours, sweep)
-            } else {
-                stretch(&edges, &colours, sweep)
-            }
-            for k in 0..n {
-                let (ids, (c, g), alpha) = if case == "bend" {
-                    let b = bends[k];
-                    let (c, g) = constraints::bending(&b.v.map(|i| start[i]), b.rest);
-                    (b.v.to_vec(), (c, g.to_vec()), compliance * b.inverse_weight)
+            let mut results = Vec::new();
+            for path in [Path::Fastest, Path::Portable] {
+                let mut rows = Vec::new();
+                batch::fill_rows(&start, &w, &mut rows);
+                let mut lambda = vec![[0.0; LANES]; 6];
+                (0..n).for_each(|k| lambda[lane(k).0][lane(k).1] = 1e-6 * k as f64);
+                let before = lambda.clone();
+                let sweep = Sweep { rows: &mut rows, lambda: &mut lambda, compliance, rule: Compliance };
+                if case == "bend" {
+                    run::<Bend, _, 4>(&bent, sweep, path)
                 } else {
-                    let e = edges[k];
-                    let (c, g) = constraints::stretch(start[e.v[0]], start[e.v[1]], e.rest);
-                    (e.v.to_vec(), (c, g.to_vec()), compliance)
-                };
-                let (delta, moves) = expected(c, &g, &ids, &w, alpha, before[k]);
-                let scale = moves.iter().map(|m| m.length()).fold(0.0, f64::max);
-                assert!(scale > 1e-5, "{case} {k}: the test should move particles ({scale})");
-                for (&i, m) in ids.iter().zip(&moves) {
-                    let error = (p[i] - start[i] - *m).length();
-                    assert!(error <= 1e-5 * scale, "{case} {k}: particle {i} off by {error:e} of {scale:e}");
+                    run::<Edge, _, 2>(&stretched, sweep, path)
                 }
-                assert!((lambda[k] - before[k] - delta).abs() <= 1e-5 * delta.abs(), "{case} {k}: Δλ");
+                let mut p = start.clone();
+                batch::read_rows(&rows, &mut p);
+                for k in 0..n {
+                    let (ids, (c, g), alpha) = if case == "bend" {
+                        let b = bends[k];
+                        let (c, g) = constraints::bending(&b.v.map(|i| start[i]), b.rest);
+                        (b.v.to_vec(), (c, g.to_vec()), compliance * b.inverse_weight)
+                    } else {
+                        let e = edges[k];
+                        let (c, g) = constraints::stretch(start[e.v[0]], start[e.v[1]], e.rest);
+                        (e.v.to_vec(), (c, g.to_vec()), compliance)
+                    };
+                    let (b, l) = lane(k);
+                    let (delta, moves) = expected(c, &g, &ids, &w, alpha, before[b][l]);
+                    let scale = moves.iter().map(|m| m.length()).fold(0.0, f64::max);
+                    assert!(scale > 1e-5, "{case} {k}: the test should move particles ({scale})");
+                    for (&i, m) in ids.iter().zip(&moves) {
+                        let error = (p[i] - start[i] - *m).length();
+                        assert!(
+                            error <= 1e-5 * scale,
+                            "{case} {k} {path:?}: particle {i} off by {error:e} of {scale:e}"
+                        );
+                    }
+                    assert!((lambda[b][l] - before[b][l] - delta).abs() <= 1e-5 * delta.abs(), "{case} {k}: Δλ");
+                }
+                // The lanes past a batch's count keep their multipliers.
+                for (b, l) in [(2, 4), (2, 7), (5, 1), (5, 7)] {
+                    assert_eq!(lambda[b][l], 0.0, "{case} {path:?}: unused lane {b}/{l}");
+                }
+                results.push((p, lambda));
             }
+            assert!(results[0] == results[1], "{case}: the two paths differ");
         }
     }
 }
