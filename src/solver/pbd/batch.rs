@@ -52,13 +52,15 @@ pub struct Batch<const K: usize> {
 pub struct Batches<const K: usize> {
     /// The batches, colour after colour.
     pub batches: Vec<Batch<K>>,
+    /// Where each colour's batches begin, and the end (batches of a colour are independent).
+    pub colours: Vec<usize>,
 }
 
 impl<const K: usize> Batches<K> {
     /// `items` (ordered by colour) packed into batches that do not cross the colours (`colours`:
     /// where each begins, and the end).
     pub fn new<T: Packable<K>>(items: &[T], colours: &[usize]) -> Self {
-        let mut batches = Vec::new();
+        let (mut batches, mut starts) = (Vec::new(), vec![0]);
         for colour in colours.windows(2) {
             for group in items[colour[0]..colour[1]].chunks(LANES) {
                 let lane = |k: usize| &group[k.min(group.len() - 1)];
@@ -67,8 +69,9 @@ impl<const K: usize> Batches<K> {
                 let factors = std::array::from_fn(|k| lane(k).factor());
                 batches.push(Batch { ids, constants, factors, count: group.len() });
             }
+            starts.push(batches.len());
         }
-        Self { batches }
+        Self { batches, colours: starts }
     }
 }
 
@@ -106,6 +109,7 @@ mod tests {
         let colours = [0, 11, 21];
         let packed = Batches::new(&items, &colours);
         assert_eq!(packed.batches.iter().map(|b| b.count).collect::<Vec<_>>(), vec![8, 3, 8, 2]);
+        assert_eq!(packed.colours, vec![0, 2, 4]);
         let mut seen = Vec::new();
         for (b, batch) in packed.batches.iter().enumerate() {
             for k in 0..LANES {

@@ -156,6 +156,9 @@ pub struct Pbd {
     v: Vec<DVec3>,
     p: Vec<DVec3>,
     w: Vec<f64>,
+    /// Gravity and point loads on each particle (set each frame), N.
+    weights: Vec<DVec3>,
+    /// Those plus the wind's force, when there is wind, N.
     forces: Vec<DVec3>,
     bodies: Vec<Rigid>,
     initial_bodies: Vec<Rigid>,
@@ -223,6 +226,7 @@ impl Pbd {
             v: vec![DVec3::ZERO; n],
             p: model.rest.clone(),
             w: vec![0.0; n],
+            weights: vec![DVec3::ZERO; n],
             forces: vec![DVec3::ZERO; n],
             initial_bodies: bodies.clone(),
             bodies,
@@ -268,11 +272,13 @@ impl Pbd {
         }
     }
 
-    /// Inverse masses: anchored and dragged particles have none.
+    /// Inverse masses (anchored and dragged particles have none), and each particle's weight with its
+    /// point load.
     fn update_masses(&mut self) {
         for (i, w) in self.w.iter_mut().enumerate() {
             let m = self.model.areas[i] * self.density;
             *w = if self.model.anchored[i] || m <= 0.0 { 0.0 } else { 1.0 / m };
+            self.weights[i] = self.gravity * m + self.model.loads[i];
         }
         for (_, d) in self.drags.iter() {
             self.w[d.vertex] = 0.0;
@@ -316,12 +322,15 @@ impl Pbd {
     fn substep(&mut self, h: f64, t: f64) {
         let n = self.x.len();
         // External forces, prediction.
-        self.forces.iter_mut().zip(&self.model.areas).zip(&self.model.loads).for_each(|((f, a), l)| {
-            *f = self.gravity * (a * self.density) + *l;
-        });
-        self.wind.add_forces(t - h, &self.x, &self.v, &self.model.triangles, &mut self.forces);
-        for i in 0..n {
-            self.v[i] += self.forces[i] * (self.w[i] * h);
+        let forces = if self.wind.is_calm() {
+            &self.weights
+        } else {
+            self.forces.copy_from_slice(&self.weights);
+            self.wind.add_forces(t - h, &self.x, &self.v, &self.model.triangles, &mut self.forces);
+            &self.forces
+        };
+        for (i, f) in forces.iter().enumerate() {
+            self.v[i] += *f * (self.w[i] * h);
             self.p[i] = if self.w[i] > 0.0 { self.x[i] + self.v[i] * h } else { self.x[i] };
         }
         for (_, d) in self.drags.iter() {
@@ -383,18 +392,21 @@ impl Pbd {
         }
         // Velocities from positions; friction; damping.
         let keep = (1.0 - self.damping * h).max(0.0);
+        // Damping waits for the self-contacts to settle, if there are any.
+        let settling = self.self_collision.as_ref().filter(|sc| sc.active() > 0);
+        let now = if settling.is_some() { 1.0 } else { keep };
         for i in 0..n {
-            self.v[i] = if self.w[i] > 0.0 { (self.p[i] - self.x[i]) / h } else { DVec3::ZERO };
+            self.v[i] = if self.w[i] > 0.0 { (self.p[i] - self.x[i]) / h * now } else { DVec3::ZERO };
             self.x[i] = self.p[i];
         }
-        if let Some(sc) = &self.self_collision {
+        if let Some(sc) = settling {
             sc.settle(&self.x, &mut self.v, &self.w, &self.model.triangles, self.thickness);
+            self.v.iter_mut().for_each(|v| *v *= keep);
         }
         for b in &mut self.bodies {
             b.finish(h);
             b.damp(keep);
         }
-        self.v.iter_mut().for_each(|v| *v *= keep);
     }
 
     /// Find this substep's contacts: particles near bodies, small bodies near triangles, and the

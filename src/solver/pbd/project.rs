@@ -20,7 +20,7 @@ use glam::DVec3;
 
 use pulp::Simd;
 
-use super::batch::{Batches, LANES, Row};
+use super::batch::{Batch, Batches, LANES, Row};
 use super::model::{Bend, Edge};
 use crate::energy::constraints;
 use crate::linalg::real::{self, Lanes32, Real, V3};
@@ -130,17 +130,29 @@ struct Read<N, const K: usize> {
     compliance: N,
 }
 
-/// The projection of a batch's lanes: `Δλ`, and each particle's move `w_i ∇_i C Δλ`.
+/// `Δλ` of a batch's lanes, and each particle's move `w_i ∇_i C Δλ`.
+type Projected<N, const K: usize> = (N, [V3<N>; K]);
+
+/// The projection of a batch's lanes.
 #[inline(always)]
-fn project<T: Lane<K>, R: Rule, N: Real, const K: usize>(read: Read<N, K>, rule: R) -> (N, [V3<N>; K]) {
+fn project<T: Lane<K>, R: Rule, N: Real, const K: usize>(read: Read<N, K>, rule: R) -> Projected<N, K> {
     let (c, g) = T::evaluate(&read.x, read.constants);
     let zero = c.constant(0.0);
-    let denominator = (0..K).fold(zero, |sum, j| sum + read.w[j] * real::dot(g[j], g[j]));
+    // Loops, not closures, in this module's arithmetic: a closure the compiler declines to inline
+    // would run without the dispatched instruction set.
+    let mut denominator = zero;
+    for (&w, &g) in read.w.iter().zip(&g) {
+        denominator = denominator + w * real::dot(g, g);
+    }
     let delta = rule.delta(c, denominator, read.compliance, read.lambda);
     // A constraint without movable particles, or degenerate, is left alone.
     let delta = N::select(zero.less(denominator), delta, zero);
     let delta = N::select(delta.abs().less(c.constant(f64::INFINITY)), delta, zero);
-    (delta, std::array::from_fn(|j| real::scale(g[j], read.w[j] * delta)))
+    let mut steps = g;
+    for (step, &w) in steps.iter_mut().zip(&read.w) {
+        *step = real::scale(*step, w * delta);
+    }
+    (delta, steps)
 }
 
 /// A sweep over batches of constraints of `K` particles, as a kernel for [`pulp`]'s dispatch.
@@ -187,43 +199,25 @@ impl<T: Lane<K>, R: Rule, const K: usize> pulp::WithSimd for Avx2<'_, T, R, K> {
 
     #[inline(always)]
     fn with_simd<S: Simd>(self, _: S) {
-        use eight::{gather, narrow, scatter};
-        use pulp::cast;
-        use std::arch::x86_64::{__m256, __m256d};
         let Avx2(kernel, simd) = self;
-        let avx = simd.avx;
         let Sweep { rows, lambda, compliance, rule } = kernel.sweep;
-        let lanes = |v: __m256| Lanes32 { simd, v: cast(v) };
-        let lane_index = lanes(cast([0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]));
-        let scaled = avx._mm256_set1_pd(compliance);
-        for (batch, lambda) in kernel.batches.batches.iter().zip(lambda.iter_mut()) {
-            // Each lane's origin: its first particle, with no inverse mass to subtract.
-            let origins: [__m256d; LANES] = std::array::from_fn(|k| {
-                avx._mm256_blend_pd::<0b1000>(cast(rows[batch.ids[0][k] as usize].0), avx._mm256_setzero_pd())
-            });
-            let slots: [[__m256; 4]; K] = std::array::from_fn(|j| gather(simd, rows, &batch.ids[j], &origins));
-            let halves =
-                |v: &[f64; LANES]| -> [__m256d; 2] { [cast([v[0], v[1], v[2], v[3]]), cast([v[4], v[5], v[6], v[7]])] };
-            let (factors, multipliers) = (halves(&batch.factors), halves(lambda));
-            let read = Read::<_, K> {
-                x: std::array::from_fn(|j| std::array::from_fn(|a| lanes(slots[j][a]))),
-                w: std::array::from_fn(|j| lanes(slots[j][3])),
-                constants: batch.constants.map(|c| lanes(cast(c))),
-                lambda: lanes(narrow(simd, multipliers)),
-                compliance: lanes(narrow(simd, factors.map(|f| avx._mm256_mul_pd(f, scaled)))),
-            };
-            let (delta, steps) = project::<T, R, _, K>(read, rule);
-            // Lanes past the batch's count add nothing to their multipliers.
-            let real = lane_index.less(lanes(avx._mm256_set1_ps(batch.count as f32)));
-            let delta: __m256 = cast(Lanes32::select(real, delta, lanes(avx._mm256_setzero_ps())).v);
-            let wide = [
-                avx._mm256_cvtps_pd(avx._mm256_castps256_ps128(delta)),
-                avx._mm256_cvtps_pd(avx._mm256_extractf128_ps::<1>(delta)),
-            ];
-            let sums: [[f64; 4]; 2] = [0, 1].map(|h| cast(avx._mm256_add_pd(multipliers[h], wide[h])));
-            *lambda = std::array::from_fn(|k| sums[k / 4][k % 4]);
-            for (j, step) in steps.iter().enumerate() {
-                scatter(simd, rows, &batch.ids[j], batch.count, step.map(|s| cast(s.v)));
+        let eight = eight::Eight::new(simd, compliance);
+        let batches = &kernel.batches.batches;
+        // Two batches of a colour at a time, read before either is projected: their arithmetic is
+        // independent, and the processor overlaps the two chains of long-latency roots and divisions.
+        for colour in kernel.batches.colours.windows(2) {
+            let mut b = colour[0];
+            while b + 1 < colour[1] {
+                let (first, second) =
+                    (eight.read(rows, &batches[b], &lambda[b]), eight.read(rows, &batches[b + 1], &lambda[b + 1]));
+                let (first, second) = (project::<T, R, _, K>(first, rule), project::<T, R, _, K>(second, rule));
+                eight.write(rows, &batches[b], &mut lambda[b], first);
+                eight.write(rows, &batches[b + 1], &mut lambda[b + 1], second);
+                b += 2;
+            }
+            if b < colour[1] {
+                let projected = project::<T, R, _, K>(eight.read(rows, &batches[b], &lambda[b]), rule);
+                eight.write(rows, &batches[b], &mut lambda[b], projected);
             }
         }
     }
@@ -237,11 +231,97 @@ mod eight {
     use pulp::cast;
     use pulp::x86::V3;
 
-    use super::{LANES, Row};
+    use super::{Batch, LANES, Lanes32, Projected, Read, Real, Row};
+
+    /// What reading and writing a batch's lanes needs besides the batch: the instruction set, the
+    /// sweep's compliance and the lanes' indices.
+    #[derive(Clone, Copy)]
+    pub struct Eight {
+        simd: V3,
+        compliance: __m256d,
+        index: __m256,
+    }
+
+    impl Eight {
+        /// For a sweep of this compliance.
+        #[inline(always)]
+        pub fn new(simd: V3, compliance: f64) -> Self {
+            let index = cast([0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
+            Self { simd, compliance: simd.avx._mm256_set1_pd(compliance), index }
+        }
+
+        #[inline(always)]
+        fn lanes(self, v: __m256) -> Lanes32<V3> {
+            Lanes32 { simd: self.simd, v: cast(v) }
+        }
+
+        /// A batch's lanes as the projection reads them.
+        #[inline(always)]
+        pub fn read<const K: usize>(
+            self,
+            rows: &[Row],
+            batch: &Batch<K>,
+            lambda: &[f64; LANES],
+        ) -> Read<Lanes32<V3>, K> {
+            let (simd, avx) = (self.simd, self.simd.avx);
+            // Each lane's origin: its first particle, with no inverse mass to subtract.
+            let mut origins = [avx._mm256_setzero_pd(); LANES];
+            for (origin, &i) in origins.iter_mut().zip(&batch.ids[0]) {
+                *origin = avx._mm256_blend_pd::<0b1000>(cast(rows[i as usize].0), avx._mm256_setzero_pd());
+            }
+            let zero = self.lanes(avx._mm256_setzero_ps());
+            let (mut x, mut w) = ([[zero; 3]; K], [zero; K]);
+            for j in 0..K {
+                let [px, py, pz, pw] = gather(simd, rows, &batch.ids[j], &origins);
+                (x[j], w[j]) = ([self.lanes(px), self.lanes(py), self.lanes(pz)], self.lanes(pw));
+            }
+            let [lo, hi] = halves(&batch.factors);
+            let compliance = [avx._mm256_mul_pd(lo, self.compliance), avx._mm256_mul_pd(hi, self.compliance)];
+            Read {
+                x,
+                w,
+                constants: [self.lanes(cast(batch.constants[0])), self.lanes(cast(batch.constants[1]))],
+                lambda: self.lanes(narrow(simd, halves(lambda))),
+                compliance: self.lanes(narrow(simd, compliance)),
+            }
+        }
+
+        /// A batch's projection, added to its rows and multipliers.
+        #[inline(always)]
+        pub fn write<const K: usize>(
+            self,
+            rows: &mut [Row],
+            batch: &Batch<K>,
+            lambda: &mut [f64; LANES],
+            (delta, steps): Projected<Lanes32<V3>, K>,
+        ) {
+            let (simd, avx) = (self.simd, self.simd.avx);
+            // Lanes past the batch's count add nothing to their multipliers.
+            let real = self.lanes(self.index).less(self.lanes(avx._mm256_set1_ps(batch.count as f32)));
+            let delta: __m256 = cast(Lanes32::select(real, delta, self.lanes(avx._mm256_setzero_ps())).v);
+            let wide = [
+                avx._mm256_cvtps_pd(avx._mm256_castps256_ps128(delta)),
+                avx._mm256_cvtps_pd(avx._mm256_extractf128_ps::<1>(delta)),
+            ];
+            let [lo, hi] = halves(lambda);
+            let (lo, hi): ([f64; 4], [f64; 4]) =
+                (cast(avx._mm256_add_pd(lo, wide[0])), cast(avx._mm256_add_pd(hi, wide[1])));
+            *lambda = [lo[0], lo[1], lo[2], lo[3], hi[0], hi[1], hi[2], hi[3]];
+            for (ids, [sx, sy, sz]) in batch.ids.iter().zip(steps) {
+                scatter(simd, rows, ids, batch.count, [cast(sx.v), cast(sy.v), cast(sz.v)]);
+            }
+        }
+    }
+
+    /// Eight doubles as two registers.
+    #[inline(always)]
+    fn halves(v: &[f64; LANES]) -> [__m256d; 2] {
+        [cast([v[0], v[1], v[2], v[3]]), cast([v[4], v[5], v[6], v[7]])]
+    }
 
     /// `[lo, hi]` (four doubles each) as eight singles.
     #[inline(always)]
-    pub fn narrow(simd: V3, [lo, hi]: [__m256d; 2]) -> __m256 {
+    fn narrow(simd: V3, [lo, hi]: [__m256d; 2]) -> __m256 {
         let avx = simd.avx;
         avx._mm256_insertf128_ps::<1>(avx._mm256_castps128_ps256(avx._mm256_cvtpd_ps(lo)), avx._mm256_cvtpd_ps(hi))
     }
@@ -267,20 +347,23 @@ mod eight {
     /// The rows `ids` relative to each lane's origin, in single precision, as registers of x, y, z
     /// and inverse mass.
     #[inline(always)]
-    pub fn gather(simd: V3, rows: &[Row], ids: &[u32; LANES], origins: &[__m256d; LANES]) -> [__m256; 4] {
+    fn gather(simd: V3, rows: &[Row], ids: &[u32; LANES], origins: &[__m256d; LANES]) -> [__m256; 4] {
         let avx = simd.avx;
-        let r: [__m128; LANES] =
-            std::array::from_fn(|k| avx._mm256_cvtpd_ps(avx._mm256_sub_pd(cast(rows[ids[k] as usize].0), origins[k])));
+        let mut r: [__m128; LANES] = [cast([0.0f32; 4]); LANES];
+        for k in 0..LANES {
+            r[k] = avx._mm256_cvtpd_ps(avx._mm256_sub_pd(cast(rows[ids[k] as usize].0), origins[k]));
+        }
         // Lanes k and k + 4 side by side: x y z w | x y z w.
-        transpose(
-            simd,
-            std::array::from_fn(|k| avx._mm256_insertf128_ps::<1>(avx._mm256_castps128_ps256(r[k]), r[k + 4])),
-        )
+        let mut a = [avx._mm256_setzero_ps(); 4];
+        for k in 0..4 {
+            a[k] = avx._mm256_insertf128_ps::<1>(avx._mm256_castps128_ps256(r[k]), r[k + 4]);
+        }
+        transpose(simd, a)
     }
 
     /// Add the moves `[x, y, z]` of the first `count` lanes to the rows `ids`, in double precision.
     #[inline(always)]
-    pub fn scatter(simd: V3, rows: &mut [Row], ids: &[u32; LANES], count: usize, [x, y, z]: [__m256; 3]) {
+    fn scatter(simd: V3, rows: &mut [Row], ids: &[u32; LANES], count: usize, [x, y, z]: [__m256; 3]) {
         let avx = simd.avx;
         // Lanes k and k + 4 of a[k]: x y z 0 | x y z 0.
         let a = transpose(simd, [x, y, z, avx._mm256_setzero_ps()]);

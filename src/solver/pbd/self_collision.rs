@@ -62,7 +62,7 @@ pub struct SelfCollision {
     /// Positions at the last search.
     reference: Vec<DVec3>,
     /// The triangles of the patches the last search skipped as flat, with their unit normals then.
-    watched: Vec<(u32, DVec3)>,
+    watched: Vec<([u32; 3], DVec3)>,
     /// The vertex–triangle pairs within reach at the last search, sorted by (vertex, triangle).
     pub pairs: Vec<Pair>,
     /// The edge–edge pairs likewise, sorted.
@@ -112,7 +112,7 @@ impl SelfCollision {
         // When the last search skipped the whole cloth as one flat patch, nothing can have come
         // within reach while it stays flat, however far its vertices moved.
         let whole = self.watched.len() == triangles.len();
-        let stale = self.reference.len() != x.len() || self.turned([x, p], triangles) || (!whole && self.drifted(x, p));
+        let stale = self.reference.len() != x.len() || self.turned([x, p]) || (!whole && self.drifted(x, p));
         if stale {
             let t = mean_displacement(p, x);
             self.margins.clear();
@@ -214,7 +214,10 @@ impl SelfCollision {
         });
         self.watched.clear();
         self.watched.extend(
-            self.tree.flat_patches().map(|t| (t, area_normal(triangles[t as usize].map(|i| x[i])).normalize_or_zero())),
+            self.tree
+                .flat_patches()
+                .map(|t| triangles[t as usize])
+                .map(|t| (t.map(|i| i as u32), area_normal(t.map(|i| x[i])).normalize_or_zero())),
         );
         near_vertices.sort_unstable();
         near_edges.sort_unstable();
@@ -260,12 +263,11 @@ impl SelfCollision {
 
     /// Whether a triangle of the flat patches has turned at either of `ys` by more than the tilt since
     /// the search (or has no normal there).
-    fn turned(&self, ys: [&[DVec3]; 2], triangles: &[[usize; 3]]) -> bool {
+    fn turned(&self, ys: [&[DVec3]; 2]) -> bool {
         let cos2 = TILT.cos().powi(2);
         self.watched.iter().any(|&(t, before)| {
-            let tri = triangles[t as usize];
             ys.iter().any(|y| {
-                let n = area_normal(tri.map(|i| y[i]));
+                let n = area_normal(t.map(|i| y[i as usize]));
                 let along = n.dot(before);
                 !(along > 0.0 && along * along > cos2 * n.length_squared())
             })
@@ -279,6 +281,7 @@ impl SelfCollision {
 }
 
 /// Twice a triangle's area along its normal, `(c₁ − c₀) × (c₂ − c₀)`.
+#[inline(always)]
 fn area_normal(c: [DVec3; 3]) -> DVec3 {
     (c[1] - c[0]).cross(c[2] - c[0])
 }
