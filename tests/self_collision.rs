@@ -115,11 +115,11 @@ fn the_pile_at_the_benchmarks_settings_never_intersects_itself() {
 }
 
 /// The pile's 4 substeps × 2 sweeps do not keep it on the sheet: its middle falls over an edge a
-/// substep as it folds, and goes through (frame 14, measured).
+/// substep as it folds, and goes through (frame 21, measured).
 #[test]
 fn the_sheet_at_the_piles_substeps_goes_through_itself() {
-    let (bad, most) = count("hanging-sheet", &sheet(4, 2), 20);
-    eprintln!("10,000-particle sheet, 4 substeps × 2 sweeps: {bad} of 20 frames with intersections (at most {most})");
+    let (bad, most) = count("hanging-sheet", &sheet(4, 2), 30);
+    eprintln!("10,000-particle sheet, 4 substeps × 2 sweeps: {bad} of 30 frames with intersections (at most {most})");
     assert!(bad > 0, "expected the fold to go through at 4 substeps");
 }
 
@@ -130,6 +130,19 @@ fn the_checker_sees_a_crossing_and_not_a_near_miss() {
     let above = crossing.map(|p| p + DVec3::Y * 0.1000001);
     assert!(triangles_intersect(t, crossing));
     assert!(!triangles_intersect(t, above));
+}
+
+/// The pile tipped a little otherwise folds otherwise, and stays whole too. At 84.04° the layers of
+/// its fold brought two nearly parallel cross edges together, whose common normal (their cross
+/// product) lay across the gap between them: the edge pair took no hold and they crossed (frame 34,
+/// before the pairs' normals followed the gap).
+#[test]
+fn the_pile_tipped_otherwise_never_intersects_itself() {
+    for tip in ["83.9", "84.04", "84.1"] {
+        let (bad, most) = count("pile", &[format!("placement.rotate_deg=[{tip},0.0,0.0]")], 600);
+        eprintln!("pile tipped {tip}°: {bad} of 600 frames with intersections (at most {most} pairs)");
+        assert_eq!(bad, 0, "tipped {tip}°: {bad} frames intersect (up to {most} triangle pairs)");
+    }
 }
 
 #[test]
@@ -167,8 +180,9 @@ fn a_fine_strip_with_too_few_substeps_is_reported_going_through_the_ground() {
             .chain([format!("solver.substeps={substeps}")])
             .collect::<Vec<_>>();
         let mut s = solver::build(&scene::load("pile", &sets).unwrap()).unwrap();
-        // Impact at frame 8; with 4 substeps the strip is 2 cm into the ground by frame 13.
-        (0..15).find_map(|_| s.step().err())
+        // Impact at frame 8; with 4 substeps the strip is 1.6 cm into the ground at frame 16, with 16
+        // it holds to frame 31 (measured).
+        (0..20).find_map(|_| s.step().err())
     };
     match run(4) {
         Some(solver::SolverError::Diverged { reason, .. }) => {

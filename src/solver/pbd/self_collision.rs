@@ -153,11 +153,18 @@ impl SelfCollision {
             let parallel =
                 cross.length_squared() <= 1e-12 * (i[1] - i[0]).length_squared() * (j[1] - j[0]).length_squared();
             let towards = if pair.normal != DVec3::ZERO && gap.length() < thickness { pair.normal } else { gap };
-            if !parallel {
-                let n = cross.normalize();
+            // Across the pair: the gap between the closest points, while it is clear of round-off (for
+            // nearly parallel edges, as the layers of a fold, the edges' common normal turns with
+            // their slightest twist and may lie across the gap); else the common normal.
+            let across = if gap.length() > 1e-3 * thickness {
+                Some(gap.normalize())
+            } else if !parallel {
+                Some(cross.normalize())
+            } else {
+                None
+            };
+            if let Some(n) = across {
                 pair.normal = if n.dot(towards) >= 0.0 { n } else { -n };
-            } else if pair.normal == DVec3::ZERO && gap.length_squared() > 0.0 {
-                pair.normal = gap.normalize();
             }
             if pair.normal != DVec3::ZERO && apart(pair.normal) < reach {
                 self.active_edges.push(k as u32);
