@@ -28,6 +28,7 @@ pub enum Shape {
 
 impl Shape {
     /// Signed distance and outward unit normal at `p` in the body frame.
+    #[inline(always)]
     pub fn surface(&self, p: DVec3) -> (f64, DVec3) {
         match self {
             Shape::Sphere { radius } => {

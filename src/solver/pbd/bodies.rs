@@ -127,12 +127,14 @@ impl Rigid {
     }
 
     /// Signed distance and outward normal at world point `x`.
+    #[inline(always)]
     pub fn surface(&self, x: DVec3) -> (f64, DVec3) {
         let (d, n) = self.body.shape.surface(self.rotation.inverse() * (x - self.centre));
         (d, self.rotation * n)
     }
 
     /// Velocity of the body's material at `x`.
+    #[inline]
     pub fn velocity_at(&self, x: DVec3) -> DVec3 {
         self.velocity + self.spin.cross(x - self.centre)
     }
