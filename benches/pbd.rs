@@ -3,9 +3,9 @@
 //! it folds onto the ground and at rest; and 10,000-particle sheets with self-collision on, at settings
 //! that keep them from going through themselves: the hanging sheet (edges of 1 cm, thickness 2 mm)
 //! swinging from its two clips at 16 substeps × 1 sweep (`tests/self_collision.rs` checks 300 frames of
-//! it with the exact intersection test; at the pile's 4 × 2 it goes through itself by frame 14), and
+//! it with the exact intersection test; at the pile's 4 × 2 it goes through itself by frame 21), and
 //! the pile itself refined (segments 38 × 255, thickness scaled with the edges, 16 substeps) just
-//! after it lands (frame 14, no intersection; by frame 28–39 even 16 substeps let it through the
+//! after it lands (frame 14, no intersection; by frame 31 even 16 substeps let it through the
 //! ground, reported as a divergence).
 //! Run: `cargo bench --bench pbd`.
 

@@ -61,7 +61,8 @@ pub fn bending_of<N: Real>(x: &[V3<N>; 4], rest_cos: N, rest_sin: N) -> (N, [V3<
 /// `atan2(y, x)` in `(−π, π]` to within a few units in the last place, in arithmetic a vector unit
 /// does (no table, no branch but selects): the ratio of the smaller to the larger magnitude, halved
 /// twice by `atan z = 2 atan(z / (1 + √(1 + z²)))` to `|z| ≤ tan(π/16)`, then the series
-/// `Σ (−1)ᵏ z²ᵏ⁺¹/(2k + 1)` to `z²³` (the next term is below 2⁻⁶⁰), and the octant restored.
+/// `Σ (−1)ᵏ z²ᵏ⁺¹/(2k + 1)` to the last term the precision can see ([`Real::ATAN_LAST_TERM`]: to
+/// `z²³` in double precision, `z⁹` in single), and the octant restored.
 #[inline(always)]
 pub fn atan2<N: Real>(y: N, x: N) -> N {
     use std::f64::consts::{FRAC_PI_2, PI};
@@ -75,8 +76,9 @@ pub fn atan2<N: Real>(y: N, x: N) -> N {
     let h1 = one + (one + z * z).sqrt();
     let z = z / (h1 + (h1 * h1 + z * z).sqrt());
     let z2 = z * z;
-    let mut series = x.constant(-1.0 / 23.0);
-    for k in (0..11).rev() {
+    let last = N::ATAN_LAST_TERM;
+    let mut series = x.constant(if last % 2 == 0 { 1.0 } else { -1.0 } / (2 * last + 1) as f64);
+    for k in (0..last).rev() {
         series = series * z2 + x.constant(if k % 2 == 0 { 1.0 } else { -1.0 } / (2 * k + 1) as f64);
     }
     let r = x.constant(4.0) * z * series;
