@@ -250,6 +250,11 @@ impl TriangleTree {
         }
     }
 
+    /// Whether the last query skipped the whole mesh as one flat patch (the root).
+    pub fn all_flat(&self) -> bool {
+        self.skipped == [0]
+    }
+
     /// The triangles of the patches the last query skipped as flat (each once).
     pub fn flat_patches(&self) -> impl Iterator<Item = u32> + '_ {
         self.skipped.iter().flat_map(|&k| {

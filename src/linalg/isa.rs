@@ -3,10 +3,10 @@
 //! The crate is built for the baseline x86-64 (SSE2, no FMA) so that the binary runs anywhere; a
 //! [`Kernel`] run through [`avx2`] is compiled a second time for AVX2 + FMA and the version the CPU
 //! supports is chosen at run time by [`pulp`]; loops dispatched by `pulp::Arch` directly get AVX-512
-//! where the CPU has it. Only code inlined into
-//! the kernel gets the wider instructions, so [`Kernel::run`] and the functions it calls are marked
-//! `#[inline(always)]` (a closure would not be inlined into the dispatched function). Results are
-//! unchanged: Rust never fuses or reorders floating-point operations on its own.
+//! where the CPU has it. Only code inlined into the kernel gets the wider instructions, so
+//! [`Kernel::run`] and the functions it calls are marked `#[inline(always)]` (a closure would not be
+//! inlined into the dispatched function). Results are unchanged: Rust never fuses or reorders
+//! floating-point operations on its own.
 
 /// A hot loop with its arguments.
 pub trait Kernel {

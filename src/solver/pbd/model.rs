@@ -90,7 +90,7 @@ impl Model {
         if u32::try_from(rest.len()).is_err() {
             return Err(SolverError::Unsuitable {
                 method: "pbd",
-                reason: format!("{} particles: the sweeps index at most 2³² of them", rest.len()),
+                reason: format!("{} particles: the sweeps index particles with 32 bits", rest.len()),
             });
         }
         let topo = mesh.topology();

@@ -441,6 +441,10 @@ mod tests {
         let compliance = 2.0e3;
         // Each constraint's batch and lane.
         let lane = |k: usize| if k < 20 { (k / LANES, k % LANES) } else { (3 + (k - 20) / LANES, (k - 20) % LANES) };
+        #[cfg(target_arch = "x86_64")]
+        if pulp::x86::V3::try_new().is_none() {
+            eprintln!("no AVX2 here: both paths below are the one-lane one");
+        }
         for case in ["bend", "stretch"] {
             let mut results = Vec::new();
             for path in [Path::Fastest, Path::Portable] {
