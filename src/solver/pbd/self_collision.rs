@@ -325,16 +325,31 @@ fn carry<P: Copy>(keys: &[[u32; 2]], old: &[P], key: impl Fn(&P) -> [u32; 2], ne
 mod tests {
     use super::*;
 
+    /// A grid sheet of `size` (m) and `cells` in the xz-plane, with its edges and mean edge length.
+    struct Sheet {
+        rest: Vec<DVec3>,
+        triangles: Vec<[usize; 3]>,
+        edges: Vec<[usize; 2]>,
+        mean: f64,
+    }
+
+    impl Sheet {
+        fn new(size: [f64; 2], cells: [usize; 2]) -> Self {
+            let mesh = crate::mesh::generate::grid(size, cells).expect("grid");
+            let edges: Vec<[usize; 2]> = mesh.topology().edges.iter().map(|e| e.v).collect();
+            let (rest, triangles) = (mesh.positions().to_vec(), mesh.triangles().to_vec());
+            let mean = edges.iter().map(|e| (rest[e[0]] - rest[e[1]]).length()).sum::<f64>() / edges.len() as f64;
+            Self { rest, triangles, edges, mean }
+        }
+    }
+
     /// A sheet that is one flat patch is searched once while it stays flat, however far it moves,
     /// and again as soon as a fold turns its triangles; a sheet that is not one flat patch is searched
     /// again when its vertices drift apart, as before.
     #[test]
     fn a_flat_sheet_is_searched_again_only_when_it_folds() {
-        // A 1 m sheet of 2 cm cells in the xz-plane.
-        let mesh = crate::mesh::generate::grid([1.0, 1.0], [50, 50]).expect("grid");
-        let edges: Vec<[usize; 2]> = mesh.topology().edges.iter().map(|e| e.v).collect();
-        let (rest, triangles) = (mesh.positions().to_vec(), mesh.triangles().to_vec());
-        let mean = edges.iter().map(|e| (rest[e[0]] - rest[e[1]]).length()).sum::<f64>() / edges.len() as f64;
+        // A 1 m sheet of 2 cm cells.
+        let Sheet { rest, triangles, edges, mean } = Sheet::new([1.0, 1.0], [50, 50]);
         let thickness = 0.1 * mean;
         let mut sc = SelfCollision::new(&rest, &triangles, edges.clone(), mean);
         sc.find(&rest, &rest, &triangles, thickness);
@@ -369,11 +384,8 @@ mod tests {
     /// closing the V by 8°, under the tilt, brings its arms centimetres nearer and needs a search.
     #[test]
     fn two_flat_halves_are_not_one_flat_patch() {
-        // 2 m × 1 m of 2 cm cells in the xz-plane, folded square at x = 0 (the hierarchy's first split).
-        let mesh = crate::mesh::generate::grid([2.0, 1.0], [100, 50]).expect("grid");
-        let edges: Vec<[usize; 2]> = mesh.topology().edges.iter().map(|e| e.v).collect();
-        let (rest, triangles) = (mesh.positions().to_vec(), mesh.triangles().to_vec());
-        let mean = edges.iter().map(|e| (rest[e[0]] - rest[e[1]]).length()).sum::<f64>() / edges.len() as f64;
+        // 2 m × 1 m of 2 cm cells, folded square at x = 0 (the hierarchy's first split).
+        let Sheet { rest, triangles, edges, mean } = Sheet::new([2.0, 1.0], [100, 50]);
         let fold = |degrees: f64| -> Vec<DVec3> {
             let (c, s) = (degrees.to_radians().cos(), degrees.to_radians().sin());
             rest.iter().map(|p| if p.x > 0.0 { DVec3::new(p.x * c, p.x * s, p.z) } else { *p }).collect()
