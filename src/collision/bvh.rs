@@ -43,23 +43,22 @@ struct Cone {
 impl Cone {
     const ALL: Cone = Cone { axis: DVec3::Z, cos: -1.0, sin: 0.0 };
 
-    /// A cone holding both, without trigonometric functions (angles added by their cosines and sines).
+    /// A cone holding both, about the bisector of their axes, without trigonometric functions
+    /// (angles added by their cosines and sines).
     fn merge(a: Cone, b: Cone) -> Cone {
         if a.cos <= -1.0 || b.cos <= -1.0 {
             return Cone::ALL;
         }
-        let sum = a.axis + b.axis;
-        if sum.length_squared() < 1e-24 {
+        // Both axes are half the angle between them from the bisector: `cos²(φ/2) = (1 + cos φ)/2`.
+        let d = a.axis.dot(b.axis).clamp(-1.0, 1.0);
+        if 1.0 + d < 1e-12 {
             return Cone::ALL;
         }
-        let axis = sum.normalize();
-        // The half-angle reaching each child's far side: the angle to its axis plus its own.
-        let reach = |c: Cone| {
-            let (cos_b, sin_b) = (axis.dot(c.axis), axis.cross(c.axis).length());
-            (cos_b * c.cos - sin_b * c.sin, sin_b * c.cos + cos_b * c.sin)
-        };
-        let (ra, rb) = (reach(a), reach(b));
-        let (cos, sin) = if ra.0 <= rb.0 { ra } else { rb };
+        let (cos_b, sin_b) = ((0.5 * (1.0 + d)).sqrt(), (0.5 * (1.0 - d)).sqrt());
+        let axis = (a.axis + b.axis) * (0.5 / cos_b);
+        // The half-angle reaching the wider child's far side: the angle to its axis plus its own.
+        let wide = if a.cos <= b.cos { a } else { b };
+        let (cos, sin) = (cos_b * wide.cos - sin_b * wide.sin, sin_b * wide.cos + cos_b * wide.sin);
         if sin < 0.0 { Cone::ALL } else { Cone { axis, cos, sin } }
     }
 }
@@ -232,7 +231,9 @@ impl TriangleTree {
                     self.skipped.push(a);
                 } else {
                     let [l, r] = na.children;
-                    stack.extend([[l, r], [r, r], [l, l]]);
+                    stack.push([l, r]);
+                    stack.push([r, r]);
+                    stack.push([l, l]);
                 }
                 continue;
             }
@@ -243,9 +244,13 @@ impl TriangleTree {
                 (true, true) => found(na.triangle, nb.triangle),
                 // Descend the node with the larger box (or the one that is not a leaf).
                 (false, leaf_b) if leaf_b || (na.hi - na.lo).length_squared() >= (nb.hi - nb.lo).length_squared() => {
-                    stack.extend(na.children.map(|c| [c, b]).into_iter().rev());
+                    stack.push([na.children[1], b]);
+                    stack.push([na.children[0], b]);
                 }
-                _ => stack.extend(nb.children.map(|c| [a, c]).into_iter().rev()),
+                _ => {
+                    stack.push([a, nb.children[1]]);
+                    stack.push([a, nb.children[0]]);
+                }
             }
         }
     }
@@ -255,11 +260,15 @@ impl TriangleTree {
         self.skipped == [0]
     }
 
-    /// The triangles of the patches the last query skipped as flat (each once).
-    pub fn flat_patches(&self) -> impl Iterator<Item = u32> + '_ {
+    /// The triangles of the patches the last query skipped as flat (each once), with their unit
+    /// normals at the last refit.
+    pub fn flat_patches(&self) -> impl Iterator<Item = (u32, DVec3)> + '_ {
         self.skipped.iter().flat_map(|&k| {
             let node = &self.nodes[k as usize];
-            self.nodes[k as usize..node.end as usize].iter().filter(|n| n.children[0] == LEAF).map(|n| n.triangle)
+            self.nodes[k as usize..node.end as usize]
+                .iter()
+                .filter(|n| n.children[0] == LEAF)
+                .map(|n| (n.triangle, n.cone.axis))
         })
     }
 }
@@ -267,6 +276,47 @@ impl TriangleTree {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    /// A unit vector from two angles.
+    fn direction(polar: f64, azimuth: f64) -> DVec3 {
+        DVec3::new(polar.sin() * azimuth.cos(), polar.sin() * azimuth.sin(), polar.cos())
+    }
+
+    proptest! {
+        /// A merged cone holds every direction of both cones (sampled on their rims), and is no wider
+        /// than the two cones and the angle between their axes allow.
+        #[test]
+        fn a_merged_cone_holds_both(
+            first in (0.0..std::f64::consts::PI, 0.0..std::f64::consts::TAU, 0.0..1.2f64),
+            second in (0.0..std::f64::consts::PI, 0.0..std::f64::consts::TAU, 0.0..1.2f64),
+        ) {
+            let (axes, halves) = ([(first.0, first.1), (second.0, second.1)], [first.2, second.2]);
+            let cones = [0, 1].map(|k| {
+                let axis = direction(axes[k].0, axes[k].1);
+                Cone { axis, cos: halves[k].cos(), sin: halves[k].sin() }
+            });
+            let merged = Cone::merge(cones[0], cones[1]);
+            let between = cones[0].axis.angle_between(cones[1].axis);
+            let widest = (0.5 * between + halves[0].max(halves[1])).min(std::f64::consts::PI);
+            if merged.cos > -1.0 {
+                prop_assert!((merged.axis.length() - 1.0).abs() < 1e-12);
+                prop_assert!((merged.cos.acos() - widest).abs() < 1e-6, "{} against {widest}", merged.cos.acos());
+                for (k, cone) in cones.iter().enumerate() {
+                    // Two directions across the cone's axis, and the rim at twelve azimuths about it.
+                    let across = cone.axis.any_orthonormal_pair();
+                    for j in 0..12 {
+                        let turn = j as f64 * std::f64::consts::TAU / 12.0;
+                        let side = across.0 * turn.cos() + across.1 * turn.sin();
+                        let rim = cone.axis * halves[k].cos() + side * halves[k].sin();
+                        prop_assert!(rim.dot(merged.axis) >= merged.cos - 1e-12, "cone {k}, azimuth {j}");
+                    }
+                }
+            } else {
+                prop_assert!(widest > std::f64::consts::PI - 1e-5, "only cones spanning everything merge to all");
+            }
+        }
+    }
 
     /// Refit `tree` to the triangles at `x`, each box grown by half of `reach` (every triangle's reach).
     fn refit_at(tree: &mut TriangleTree, triangles: &[[usize; 3]], x: &[DVec3], reach: f64) {
@@ -335,7 +385,7 @@ mod tests {
         for (tilt, patches, pairs) in [(25.0, 1, false), (35.0, 2, true)] {
             let mut found = 0;
             tree.overlapping_pairs(Tilt::new(f64::to_radians(tilt)), |_, _| found += 1);
-            let mut covered: Vec<u32> = tree.flat_patches().collect();
+            let mut covered: Vec<u32> = tree.flat_patches().map(|(t, _)| t).collect();
             covered.sort_unstable();
             assert_eq!(covered, all, "tilt {tilt}°: every triangle once");
             assert_eq!(tree.skipped.len(), patches, "tilt {tilt}°");

@@ -342,12 +342,11 @@ impl Pbd {
             b.predict(t, h, self.gravity);
         }
         self.detect(h);
-        self.lambda_edges.fill([0.0; LANES]);
-        self.lambda_bends.fill([0.0; LANES]);
         let (alpha_stretch, alpha_bend) = self.compliances();
         let sweeps = self.sweeps as f64;
         let correction = |k: f64| 1.0 - (1.0 - k).powf(1.0 / sweeps);
-        for _ in 0..self.sweeps {
+        for sweep in 0..self.sweeps {
+            let first = sweep == 0;
             batch::fill_rows(&self.p, &self.w, &mut self.rows);
             let (rows, m) = (&mut self.rows, &self.model);
             let (edges, bends) = (&mut self.lambda_edges, &mut self.lambda_bends);
@@ -355,21 +354,27 @@ impl Pbd {
                 Variant::Pbd => {
                     let (stretch, bend) =
                         (Stiffness(correction(self.stiffness.0)), Stiffness(correction(self.stiffness.1)));
-                    project::stretch(&m.edge_batches, Sweep { rows, lambda: edges, compliance: 0.0, rule: stretch });
+                    project::stretch(
+                        &m.edge_batches,
+                        Sweep { rows, lambda: edges, first, compliance: 0.0, rule: stretch },
+                    );
                     if bend.0 > 0.0 {
-                        project::bend(&m.bend_batches, Sweep { rows, lambda: bends, compliance: 0.0, rule: bend });
+                        project::bend(
+                            &m.bend_batches,
+                            Sweep { rows, lambda: bends, first, compliance: 0.0, rule: bend },
+                        );
                     }
                 }
                 Variant::Xpbd => {
                     let (stretch, bend) = (alpha_stretch / (h * h), alpha_bend / (h * h));
                     project::stretch(
                         &m.edge_batches,
-                        Sweep { rows, lambda: edges, compliance: stretch, rule: Compliance },
+                        Sweep { rows, lambda: edges, first, compliance: stretch, rule: Compliance },
                     );
                     if bend.is_finite() {
                         project::bend(
                             &m.bend_batches,
-                            Sweep { rows, lambda: bends, compliance: bend, rule: Compliance },
+                            Sweep { rows, lambda: bends, first, compliance: bend, rule: Compliance },
                         );
                     }
                 }
@@ -498,8 +503,9 @@ impl Pbd {
         }
     }
 
-    /// Kinetic + gravitational (relative to rest) + stretch energy, J.
-    fn energy(&self) -> f64 {
+    /// Kinetic + gravitational (relative to rest) + stretch energy, J; and the largest strain of an
+    /// edge (both from one pass over the edges).
+    fn energy_and_strain(&self) -> (f64, f64) {
         let mut e = 0.0;
         for i in 0..self.x.len() {
             let m = self.model.areas[i] * self.density;
@@ -509,11 +515,13 @@ impl Pbd {
             Variant::Xpbd => 1.0 / self.compliances().0,
             Variant::Pbd => self.k_s,
         };
+        let mut strain = 0.0f64;
         for edge in &self.model.edges {
             let c = constraints::stretch(self.x[edge.v[0]], self.x[edge.v[1]], edge.rest).0;
             e += 0.5 * k * c * c;
+            strain = strain.max(c.abs() / edge.rest);
         }
-        e + self.bodies.iter().map(Rigid::kinetic_energy).sum::<f64>()
+        (e + self.bodies.iter().map(Rigid::kinetic_energy).sum::<f64>(), strain)
     }
 
     /// Total linear momentum of the cloth, kg·m/s.
@@ -553,15 +561,9 @@ impl Solver for Pbd {
         }
         self.time += self.step;
         self.steps += 1;
-        let energy = self.energy();
+        let (energy, strain) = self.energy_and_strain();
         check_finite(self.steps, self.time, &self.x, energy, self.energy_limit)?;
         self.check_penetration()?;
-        let strain = self
-            .model
-            .edges
-            .iter()
-            .map(|e| constraints::stretch(self.x[e.v[0]], self.x[e.v[1]], e.rest).0.abs() / e.rest)
-            .fold(0.0, f64::max);
         Ok(StepStats {
             wall_seconds: start.elapsed().as_secs_f64(),
             sim_time: self.time,

@@ -61,6 +61,9 @@ pub struct Sweep<'a, R> {
     /// One multiplier per constraint (at its batch and lane), accumulated over the substep's
     /// iterations.
     pub lambda: &'a mut [[f64; LANES]],
+    /// Whether this is the substep's first sweep: the multipliers start from zero (what `lambda`
+    /// holds is ignored and overwritten, so it needs no clearing).
+    pub first: bool,
     /// `α/h²` (a hinge's is this times its inverse weight).
     pub compliance: f64,
     /// PBD or XPBD.
@@ -166,8 +169,11 @@ impl<T: Lane<K>, R: Rule, const K: usize> Constraints<'_, T, R, K> {
     /// The sweep, one lane at a time, in the same single precision.
     #[inline(always)]
     fn one_by_one(self) {
-        let Sweep { rows, lambda, compliance, rule } = self.sweep;
+        let Sweep { rows, lambda, first, compliance, rule } = self.sweep;
         for (batch, lambda) in self.batches.batches.iter().zip(lambda.iter_mut()) {
+            if first {
+                *lambda = [0.0; LANES];
+            }
             for k in 0..batch.count {
                 let origin = rows[batch.ids[0][k] as usize].0;
                 let row = |j: usize| rows[batch.ids[j][k] as usize].0;
@@ -200,8 +206,8 @@ impl<T: Lane<K>, R: Rule, const K: usize> pulp::WithSimd for Avx2<'_, T, R, K> {
     #[inline(always)]
     fn with_simd<S: Simd>(self, _: S) {
         let Avx2(kernel, simd) = self;
-        let Sweep { rows, lambda, compliance, rule } = kernel.sweep;
-        let eight = eight::Eight::new(simd, compliance);
+        let Sweep { rows, lambda, first, compliance, rule } = kernel.sweep;
+        let eight = eight::Eight::new(simd, compliance, first);
         let batches = &kernel.batches.batches;
         // Two batches of a colour at a time, read before either is projected: their arithmetic is
         // independent, and the processor overlaps the two chains of long-latency roots and divisions.
@@ -240,14 +246,16 @@ mod eight {
         simd: V3,
         compliance: __m256d,
         index: __m256,
+        /// The substep's first sweep: multipliers read as zero and overwritten.
+        first: bool,
     }
 
     impl Eight {
-        /// For a sweep of this compliance.
+        /// For a sweep of this compliance, the substep's first or not.
         #[inline(always)]
-        pub fn new(simd: V3, compliance: f64) -> Self {
+        pub fn new(simd: V3, compliance: f64, first: bool) -> Self {
             let index = cast([0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
-            Self { simd, compliance: simd.avx._mm256_set1_pd(compliance), index }
+            Self { simd, compliance: simd.avx._mm256_set1_pd(compliance), index, first }
         }
 
         #[inline(always)]
@@ -281,7 +289,7 @@ mod eight {
                 x,
                 w,
                 constants: [self.lanes(cast(batch.constants[0])), self.lanes(cast(batch.constants[1]))],
-                lambda: self.lanes(narrow(simd, halves(lambda))),
+                lambda: if self.first { zero } else { self.lanes(narrow(simd, halves(lambda))) },
                 compliance: self.lanes(narrow(simd, compliance)),
             }
         }
@@ -303,9 +311,12 @@ mod eight {
                 avx._mm256_cvtps_pd(avx._mm256_castps256_ps128(delta)),
                 avx._mm256_cvtps_pd(avx._mm256_extractf128_ps::<1>(delta)),
             ];
-            let [lo, hi] = halves(lambda);
-            let (lo, hi): ([f64; 4], [f64; 4]) =
-                (cast(avx._mm256_add_pd(lo, wide[0])), cast(avx._mm256_add_pd(hi, wide[1])));
+            let (lo, hi): ([f64; 4], [f64; 4]) = if self.first {
+                (cast(wide[0]), cast(wide[1]))
+            } else {
+                let [lo, hi] = halves(lambda);
+                (cast(avx._mm256_add_pd(lo, wide[0])), cast(avx._mm256_add_pd(hi, wide[1])))
+            };
             *lambda = [lo[0], lo[1], lo[2], lo[3], hi[0], hi[1], hi[2], hi[3]];
             for (ids, [sx, sy, sz]) in batch.ids.iter().zip(steps) {
                 scatter(simd, rows, ids, batch.count, [cast(sx.v), cast(sy.v), cast(sz.v)]);
@@ -422,7 +433,8 @@ mod tests {
 
     /// The single-precision sweep moves each particle as the double-precision formula does, to a
     /// relative 1e-5 of the move, far from the origin too; the eight-lane path (where the CPU has
-    /// AVX2) and the one-lane path give the same bits.
+    /// AVX2) and the one-lane path give the same bits; and a substep's first sweep, whatever its
+    /// multipliers hold, gives the bits of a sweep from cleared multipliers.
     #[test]
     fn the_single_precision_sweep_agrees_with_double_precision() {
         let n = 37;
@@ -446,19 +458,31 @@ mod tests {
             eprintln!("no AVX2 here: both paths below are the one-lane one");
         }
         for case in ["bend", "stretch"] {
-            let mut results = Vec::new();
-            for path in [Path::Fastest, Path::Portable] {
+            let sweep = |path: Path, lambda: &mut [[f64; LANES]], first: bool| {
                 let mut rows = Vec::new();
                 batch::fill_rows(&start, &w, &mut rows);
-                let mut lambda = vec![[0.0; LANES]; 6];
-                (0..n).for_each(|k| lambda[lane(k).0][lane(k).1] = 1e-6 * k as f64);
-                let before = lambda.clone();
-                let sweep = Sweep { rows: &mut rows, lambda: &mut lambda, compliance, rule: Compliance };
+                let sweep = Sweep { rows: &mut rows, lambda, first, compliance, rule: Compliance };
                 if case == "bend" {
                     run::<Bend, _, 4>(&bent, sweep, path)
                 } else {
                     run::<Edge, _, 2>(&stretched, sweep, path)
                 }
+                rows
+            };
+            for path in [Path::Fastest, Path::Portable] {
+                let (mut cleared, mut held) = (vec![[0.0; LANES]; 6], vec![[7.0; LANES]; 6]);
+                let (from_zero, first) = (sweep(path, &mut cleared, false), sweep(path, &mut held, true));
+                assert!(
+                    from_zero == first && cleared == held,
+                    "{case} {path:?}: the first sweep reads its multipliers"
+                );
+            }
+            let mut results = Vec::new();
+            for path in [Path::Fastest, Path::Portable] {
+                let mut lambda = vec![[0.0; LANES]; 6];
+                (0..n).for_each(|k| lambda[lane(k).0][lane(k).1] = 1e-6 * k as f64);
+                let before = lambda.clone();
+                let rows = sweep(path, &mut lambda, false);
                 let mut p = start.clone();
                 batch::read_rows(&rows, &mut p);
                 for k in 0..n {

@@ -206,9 +206,14 @@ impl SelfCollision {
             for (s, t) in [(a, b), (b, a)] {
                 let (ts, tt) = (triangles[s as usize], triangles[t as usize]);
                 let corners = tt.map(|i| x[i]);
+                let (lo, hi) = bounds(&corners);
                 let mt = side(&tt);
                 for &v in ts.iter().filter(|&&v| vertex_owner[v] == s && !tt.contains(&v)) {
                     let reach = thickness + 0.5 * (margins[v] + mt);
+                    // A vertex within reach of the triangle is within reach of its box.
+                    if x[v].cmplt(lo - reach).any() || x[v].cmpgt(hi + reach).any() {
+                        continue;
+                    }
                     let on = closest::at(corners, closest_on_triangle(x[v], corners).0);
                     if (x[v] - on).length_squared() <= reach * reach {
                         near_vertices.push([v as u32, t]);
@@ -222,7 +227,14 @@ impl SelfCollision {
                         continue;
                     }
                     let reach = thickness + 0.5 * (side(&ee) + side(&ff));
-                    if segment_gap(ee.map(|k| x[k]), ff.map(|k| x[k])).length_squared() <= reach * reach {
+                    let (i, j) = (ee.map(|k| x[k]), ff.map(|k| x[k]));
+                    // Edges within reach of each other have boxes within reach.
+                    if i[0].min(i[1]).cmpgt(j[0].max(j[1]) + reach).any()
+                        || j[0].min(j[1]).cmpgt(i[0].max(i[1]) + reach).any()
+                    {
+                        continue;
+                    }
+                    if segment_gap(i, j).length_squared() <= reach * reach {
                         near_edges.push([e.min(f), e.max(f)]);
                     }
                 }
@@ -230,12 +242,8 @@ impl SelfCollision {
         });
         self.whole = self.tree.all_flat();
         self.watched.clear();
-        self.watched.extend(
-            self.tree
-                .flat_patches()
-                .map(|t| triangles[t as usize])
-                .map(|t| (t.map(|i| i as u32), area_normal(t.map(|i| x[i])).normalize_or_zero())),
-        );
+        self.watched
+            .extend(self.tree.flat_patches().map(|(t, normal)| (triangles[t as usize].map(|i| i as u32), normal)));
         near_vertices.sort_unstable();
         near_edges.sort_unstable();
         self.pairs = carry(
@@ -273,8 +281,9 @@ impl SelfCollision {
     fn drifted(&self, x: &[DVec3], p: &[DVec3]) -> bool {
         let (tx, tp) = (mean_displacement(x, &self.reference), mean_displacement(p, &self.reference));
         (0..x.len()).any(|i| {
-            let drift = (x[i] - self.reference[i] - tx).length().max((p[i] - self.reference[i] - tp).length());
-            2.0 * drift >= self.margins[i]
+            let drift2 =
+                (x[i] - self.reference[i] - tx).length_squared().max((p[i] - self.reference[i] - tp).length_squared());
+            4.0 * drift2 >= self.margins[i] * self.margins[i]
         })
     }
 
