@@ -79,7 +79,7 @@ pub fn atan2<N: Real>(y: N, x: N) -> N {
     let last = N::ATAN_LAST_TERM;
     let mut series = x.constant(if last % 2 == 0 { 1.0 } else { -1.0 } / (2 * last + 1) as f64);
     for k in (0..last).rev() {
-        series = series * z2 + x.constant(if k % 2 == 0 { 1.0 } else { -1.0 } / (2 * k + 1) as f64);
+        series = series.mul_add(z2, x.constant(if k % 2 == 0 { 1.0 } else { -1.0 } / (2 * k + 1) as f64));
     }
     let r = x.constant(4.0) * z * series;
     let r = N::select(steep, x.constant(FRAC_PI_2) - r, r);

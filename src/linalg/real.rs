@@ -31,6 +31,12 @@ pub trait Real:
     fn select(mask: Self::Mask, yes: Self, no: Self) -> Self;
     /// The magnitude of `self` with the sign of `sign`.
     fn copysign(self, sign: Self) -> Self;
+    /// `self × b + c`: rounded once where the lanes have a fused multiply-add (the same bits on
+    /// every path of the lanes), and `self * b + c` for a number.
+    #[inline(always)]
+    fn mul_add(self, b: Self, c: Self) -> Self {
+        self * b + c
+    }
 }
 
 impl Real for f64 {
@@ -116,6 +122,10 @@ impl<S: Simd> Real for Lanes32<S> {
     type Mask = S::m32s;
     const ATAN_LAST_TERM: usize = 4;
     #[inline(always)]
+    fn mul_add(self, b: Self, c: Self) -> Self {
+        Self { simd: self.simd, v: self.simd.mul_add_f32s(self.v, b.v, c.v) }
+    }
+    #[inline(always)]
     fn constant(self, c: f64) -> Self {
         Self { simd: self.simd, v: self.simd.splat_f32s(c as f32) }
     }
@@ -173,13 +183,15 @@ pub fn scale<N: Real>(a: V3<N>, s: N) -> V3<N> {
 /// `a · b`.
 #[inline(always)]
 pub fn dot<N: Real>(a: V3<N>, b: V3<N>) -> N {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    // For a number, `(a₀b₀ + a₁b₁) + a₂b₂`: addition commutes exactly.
+    a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]))
 }
 
 /// `a × b`.
 #[inline(always)]
 pub fn cross<N: Real>(a: V3<N>, b: V3<N>) -> V3<N> {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    // For a number, `x + (−y)` is exactly `x − y`.
+    [a[1].mul_add(b[2], -(a[2] * b[1])), a[2].mul_add(b[0], -(a[0] * b[2])), a[0].mul_add(b[1], -(a[1] * b[0]))]
 }
 
 #[cfg(test)]

@@ -5,8 +5,9 @@
 //! forces (gravity, point loads, wind), positions are predicted `p = x + h v`; the colliders move
 //! (scripted ones to their pose, dynamic ones by their velocity and gravity); contacts and
 //! self-collision pairs are found; then `sweeps` Gauss–Seidel sweeps project every constraint in a
-//! fixed order — stretch per edge, bending per hinge, the balloon's volume, contacts with bodies (and
-//! small bodies against the cloth's triangles), self-collision — then friction against the bodies,
+//! fixed order — stretch per boundary edge, then per interior edge each followed by its hinge's
+//! bending (module `project`), the balloon's volume, contacts with bodies (and small bodies against the
+//! cloth's triangles), self-collision — then friction against the bodies,
 //! once, with the normal pushes of all the sweeps as its budget; and finally `v = (p − x)/h`, `x = p`,
 //! and damping.
 //!
@@ -26,6 +27,8 @@
 mod batch;
 mod bodies;
 mod contact;
+#[cfg(target_arch = "x86_64")]
+mod eight;
 mod model;
 mod project;
 mod self_collision;
@@ -35,11 +38,11 @@ use std::time::Instant;
 
 use glam::{DQuat, DVec3};
 
-use self::batch::{LANES, Row};
+use self::batch::Row;
 use self::bodies::Rigid;
 use self::contact::{SampleHit, Touch};
 use self::model::Model;
-use self::project::{Compliance, Stiffness, Sweep};
+use self::project::{Compliance, Multipliers, Stiffness};
 use self::self_collision::SelfCollision;
 use crate::collision::Shape;
 use crate::energy::constraints;
@@ -181,8 +184,7 @@ pub struct Pbd {
     k_b: f64,
     // Scratch.
     rows: Vec<Row>,
-    lambda_edges: Vec<[f64; LANES]>,
-    lambda_bends: Vec<[f64; LANES]>,
+    multipliers: Multipliers,
     gradient: Vec<DVec3>,
     touches: Vec<Touch>,
     samples: Vec<SampleHit>,
@@ -250,8 +252,7 @@ impl Pbd {
             k_s: check("k_s", m.k_s)?,
             k_b: check("k_b", m.k_b)?,
             rows: Vec::with_capacity(model.rest.len()),
-            lambda_edges: vec![[0.0; LANES]; model.edge_batches.batches.len()],
-            lambda_bends: vec![[0.0; LANES]; model.bend_batches.batches.len()],
+            multipliers: Multipliers::new(&model),
             gradient: vec![DVec3::ZERO; n],
             touches: Vec::new(),
             samples: Vec::new(),
@@ -348,35 +349,17 @@ impl Pbd {
         for sweep in 0..self.sweeps {
             let first = sweep == 0;
             batch::fill_rows(&self.p, &self.w, &mut self.rows);
-            let (rows, m) = (&mut self.rows, &self.model);
-            let (edges, bends) = (&mut self.lambda_edges, &mut self.lambda_bends);
+            let (rows, m, lambda) = (&mut self.rows, &self.model, &mut self.multipliers);
             match self.variant {
                 Variant::Pbd => {
-                    let (stretch, bend) =
-                        (Stiffness(correction(self.stiffness.0)), Stiffness(correction(self.stiffness.1)));
-                    project::stretch(
-                        &m.edge_batches,
-                        Sweep { rows, lambda: edges, first, compliance: 0.0, rule: stretch },
-                    );
-                    if bend.0 > 0.0 {
-                        project::bend(
-                            &m.bend_batches,
-                            Sweep { rows, lambda: bends, first, compliance: 0.0, rule: bend },
-                        );
-                    }
+                    let (stretch, bend) = (correction(self.stiffness.0), correction(self.stiffness.1));
+                    let bend = (bend > 0.0).then_some((0.0, Stiffness(bend)));
+                    project::sweep(m, rows, lambda, first, (0.0, Stiffness(stretch)), bend);
                 }
                 Variant::Xpbd => {
                     let (stretch, bend) = (alpha_stretch / (h * h), alpha_bend / (h * h));
-                    project::stretch(
-                        &m.edge_batches,
-                        Sweep { rows, lambda: edges, first, compliance: stretch, rule: Compliance },
-                    );
-                    if bend.is_finite() {
-                        project::bend(
-                            &m.bend_batches,
-                            Sweep { rows, lambda: bends, first, compliance: bend, rule: Compliance },
-                        );
-                    }
+                    let bend = bend.is_finite().then_some((bend, Compliance));
+                    project::sweep(m, rows, lambda, first, (stretch, Compliance), bend);
                 }
             }
             batch::read_rows(&self.rows, &mut self.p);

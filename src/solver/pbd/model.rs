@@ -2,10 +2,15 @@
 //! each adjacent triangle's area), anchored ones of infinite mass, one stretch constraint per edge,
 //! one bending constraint per interior edge (hinge) with its rest angle (so curved rest shapes keep
 //! their shape), and for a closed mesh the enclosed volume.
+//!
+//! An interior edge's stretch and its hinge's bending share the edge's two particles, so the sweeps
+//! take them together ([`StretchBend`]: one gather of the hinge's four particles, the stretch
+//! projected, then the bending at the stretched positions, one scatter); the boundary edges, which
+//! have no hinge, go on their own before them. Without bending, every edge goes on its own.
 
 use glam::DVec3;
 
-use super::batch::{Batches, Packable};
+use super::batch::{Batches, CONSTANTS, Packable};
 use crate::energy::constraints::{self, RestAngle};
 use crate::energy::hinge;
 use crate::scene::Setup;
@@ -32,27 +37,37 @@ pub struct Bend {
     pub inverse_weight: f64,
 }
 
-impl Packable<2> for Edge {
+/// An interior edge's stretch and its hinge's bending, projected one after the other: the hinge's
+/// particles `[a, b, c, d]`, of which `a, b` are the edge's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StretchBend {
+    /// The edge's rest length, m.
+    pub rest: f64,
+    /// The hinge.
+    pub bend: Bend,
+}
+
+impl Packable<2, 1> for Edge {
     fn particles(&self) -> [usize; 2] {
         self.v
     }
-    fn constants(&self) -> [f64; 2] {
-        [self.rest, 0.0]
+    fn constants(&self) -> [f64; CONSTANTS] {
+        [self.rest, 0.0, 0.0]
     }
-    fn factor(&self) -> f64 {
-        1.0
+    fn factors(&self) -> [f64; 1] {
+        [1.0]
     }
 }
 
-impl Packable<4> for Bend {
+impl Packable<4, 2> for StretchBend {
     fn particles(&self) -> [usize; 4] {
-        self.v
+        self.bend.v
     }
-    fn constants(&self) -> [f64; 2] {
-        [self.rest.cos, self.rest.sin]
+    fn constants(&self) -> [f64; CONSTANTS] {
+        [self.rest, self.bend.rest.cos, self.bend.rest.sin]
     }
-    fn factor(&self) -> f64 {
-        self.inverse_weight
+    fn factors(&self) -> [f64; 2] {
+        [1.0, self.bend.inverse_weight]
     }
 }
 
@@ -71,11 +86,13 @@ pub struct Model {
     pub loads: Vec<DVec3>,
     /// Stretch constraints.
     pub edges: Vec<Edge>,
-    /// The stretch constraints packed for the sweeps, in colours (no two edges of a colour share a
-    /// particle).
-    pub edge_batches: Batches<2>,
-    /// The bending constraints packed for the sweeps, in colours.
-    pub bend_batches: Batches<4>,
+    /// Every stretch constraint packed for the sweeps, in colours (no two edges of a colour share a
+    /// particle): what the sweeps take when there is no bending.
+    pub edge_batches: Batches<2, 1>,
+    /// The boundary edges' stretch constraints, packed likewise.
+    pub boundary_batches: Batches<2, 1>,
+    /// The interior edges' stretch with their hinges' bending, packed likewise.
+    pub hinge_batches: Batches<4, 2>,
     /// Six times the rest volume, for a closed mesh (`None`: the mesh has a boundary).
     pub six_volume: Option<f64>,
     /// Mean rest edge length, m.
@@ -97,16 +114,18 @@ impl Model {
         let edges: Vec<Edge> =
             topo.edges.iter().map(|e| Edge { v: e.v, rest: (rest[e.v[0]] - rest[e.v[1]]).length() }).collect();
         let tri_areas = mesh.triangle_areas();
-        let bends = topo
+        let hinges: Vec<StretchBend> = topo
             .hinges
             .iter()
             .map(|h| {
                 let x = h.v.map(|i| rest[i]);
                 let e2 = (x[1] - x[0]).length_squared();
                 let inverse_weight = (tri_areas[h.faces[0]] + tri_areas[h.faces[1]]) / (6.0 * e2);
-                Bend { v: h.v, rest: RestAngle::new(hinge::angle(&x)), inverse_weight }
+                let bend = Bend { v: h.v, rest: RestAngle::new(hinge::angle(&x)), inverse_weight };
+                StretchBend { rest: edges[h.edge].rest, bend }
             })
             .collect();
+        let boundary: Vec<Edge> = topo.boundary_edges.iter().map(|&e| edges[e]).collect();
         let closed = topo.boundary_edges.is_empty();
         let six_volume = closed.then(|| {
             let mut g = vec![DVec3::ZERO; rest.len()];
@@ -121,7 +140,8 @@ impl Model {
         // In an order where constraints that follow each other rarely share a particle, the processor
         // overlaps their arithmetic instead of waiting for each update (Gauss–Seidel all the same).
         let (edges, edge_colours) = by_colour(edges, |e| &e.v);
-        let (bends, bend_colours) = by_colour(bends, |b| &b.v);
+        let (boundary, boundary_colours) = by_colour(boundary, |e| &e.v);
+        let (hinges, hinge_colours) = by_colour(hinges, |h| &h.bend.v);
         let mean_edge = edges.iter().map(|e| e.rest).sum::<f64>() / edges.len().max(1) as f64;
         Ok(Self {
             areas: mesh.vertex_areas(),
@@ -130,7 +150,8 @@ impl Model {
             loads: setup.loads.clone(),
             rest,
             edge_batches: Batches::new(&edges, &edge_colours),
-            bend_batches: Batches::new(&bends, &bend_colours),
+            boundary_batches: Batches::new(&boundary, &boundary_colours),
+            hinge_batches: Batches::new(&hinges, &hinge_colours),
             edges,
             six_volume,
             mean_edge,
