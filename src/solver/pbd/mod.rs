@@ -321,7 +321,6 @@ impl Pbd {
 
     /// One substep of `h` ending at time `t`.
     fn substep(&mut self, h: f64, t: f64) {
-        let n = self.x.len();
         // External forces, prediction.
         let forces = if self.wind.is_calm() {
             &self.weights
@@ -330,9 +329,10 @@ impl Pbd {
             self.wind.add_forces(t - h, &self.x, &self.v, &self.model.triangles, &mut self.forces);
             &self.forces
         };
-        for (i, f) in forces.iter().enumerate() {
-            self.v[i] += *f * (self.w[i] * h);
-            self.p[i] = if self.w[i] > 0.0 { self.x[i] + self.v[i] * h } else { self.x[i] };
+        let (x, v, p) = (&self.x, &mut self.v, &mut self.p);
+        for ((((v, p), x), f), &w) in v.iter_mut().zip(p.iter_mut()).zip(x).zip(forces).zip(&self.w) {
+            *v += *f * (w * h);
+            *p = if w > 0.0 { *x + *v * h } else { *x };
         }
         for (_, d) in self.drags.iter() {
             if let DragKind::Position(target) = d.kind {
@@ -383,9 +383,10 @@ impl Pbd {
         // Damping waits for the self-contacts to settle, if there are any.
         let settling = self.self_collision.as_ref().filter(|sc| sc.active() > 0);
         let now = if settling.is_some() { 1.0 } else { keep };
-        for i in 0..n {
-            self.v[i] = if self.w[i] > 0.0 { (self.p[i] - self.x[i]) / h * now } else { DVec3::ZERO };
-            self.x[i] = self.p[i];
+        let scale = now / h;
+        for (((v, x), p), &w) in self.v.iter_mut().zip(self.x.iter_mut()).zip(&self.p).zip(&self.w) {
+            *v = if w > 0.0 { (*p - *x) * scale } else { DVec3::ZERO };
+            *x = *p;
         }
         if let Some(sc) = settling {
             sc.settle(&self.x, &mut self.v, &self.w, &self.model.triangles, self.thickness);
