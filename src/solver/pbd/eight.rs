@@ -21,18 +21,20 @@ pub struct Eight<const F: usize> {
     index: __m256,
     /// The substep's first sweep: multipliers read as zero and overwritten.
     first: bool,
+    /// The substep's last sweep: multipliers left as they are.
+    last: bool,
 }
 
 impl<const F: usize> Eight<F> {
-    /// For a sweep of these compliances, the substep's first or not.
+    /// For a sweep of these compliances, the substep's first or not and last or not.
     #[inline(always)]
-    pub fn new(simd: V3, compliance: [f64; F], first: bool) -> Self {
+    pub fn new(simd: V3, compliance: [f64; F], (first, last): (bool, bool)) -> Self {
         let index = cast([0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
         let mut wide = [simd.avx._mm256_setzero_pd(); F];
         for (wide, &c) in wide.iter_mut().zip(&compliance) {
             *wide = simd.avx._mm256_set1_pd(c);
         }
-        Self { simd, compliance: wide, index, first }
+        Self { simd, compliance: wide, index, first, last }
     }
 
     #[inline(always)]
@@ -88,7 +90,7 @@ impl<const F: usize> Eight<F> {
         let (simd, avx) = (self.simd, self.simd.avx);
         // Lanes past the batch's count add nothing to their multipliers.
         let real = self.lanes(self.index).less(self.lanes(avx._mm256_set1_ps(batch.count as f32)));
-        for (lambda, delta) in lambda.iter_mut().zip(deltas) {
+        for (lambda, delta) in lambda.iter_mut().zip(deltas).filter(|_| !self.last) {
             let delta: __m256 = cast(Lanes32::select(real, delta, self.lanes(avx._mm256_setzero_ps())).v);
             let wide = [
                 avx._mm256_cvtps_pd(avx._mm256_castps256_ps128(delta)),

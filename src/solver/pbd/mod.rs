@@ -347,19 +347,20 @@ impl Pbd {
         let sweeps = self.sweeps as f64;
         let correction = |k: f64| 1.0 - (1.0 - k).powf(1.0 / sweeps);
         for sweep in 0..self.sweeps {
-            let first = sweep == 0;
+            let (first, last) = (sweep == 0, sweep + 1 == self.sweeps);
             batch::fill_rows(&self.p, &self.w, &mut self.rows);
             let (rows, m, lambda) = (&mut self.rows, &self.model, &mut self.multipliers);
             match self.variant {
                 Variant::Pbd => {
                     let (stretch, bend) = (correction(self.stiffness.0), correction(self.stiffness.1));
                     let bend = (bend > 0.0).then_some((0.0, Stiffness(bend)));
-                    project::sweep(m, rows, lambda, first, (0.0, Stiffness(stretch)), bend);
+                    // PBD's rule does not read the multipliers: none is kept.
+                    project::sweep(m, rows, lambda, (true, true), (0.0, Stiffness(stretch)), bend);
                 }
                 Variant::Xpbd => {
                     let (stretch, bend) = (alpha_stretch / (h * h), alpha_bend / (h * h));
                     let bend = bend.is_finite().then_some((bend, Compliance));
-                    project::sweep(m, rows, lambda, first, (stretch, Compliance), bend);
+                    project::sweep(m, rows, lambda, (first, last), (stretch, Compliance), bend);
                 }
             }
             batch::read_rows(&self.rows, &mut self.p);

@@ -68,6 +68,9 @@ pub struct Sweep<'a, R, const F: usize> {
     /// Whether this is the substep's first sweep: the multipliers start from zero (what `lambda`
     /// holds is ignored and overwritten, so it needs no clearing).
     pub first: bool,
+    /// Whether this is the substep's last sweep: no sweep reads the multipliers after it, so they
+    /// are left as they are.
+    pub last: bool,
     /// `α/h²` of each of a lane's constraints (a hinge's is this times its inverse weight).
     pub compliance: [f64; F],
     /// PBD or XPBD, for each of a lane's constraints.
@@ -95,17 +98,17 @@ impl Multipliers {
 
 /// One sweep over the cloth's own constraints in `rows`, each kind with its scaled compliance and
 /// rule: with bending, the boundary edges and then the interior edges each with its hinge; without,
-/// every edge.
+/// every edge. `first` and `last` say where the sweep stands in its substep ([`Sweep`]).
 pub fn sweep<R: Rule>(
     model: &Model,
     rows: &mut [Row],
     lambda: &mut Multipliers,
-    first: bool,
+    (first, last): (bool, bool),
     (stretch, stretch_rule): (f64, R),
     bend: Option<(f64, R)>,
 ) {
     let stretch_only = |batches, rows, lambda| {
-        edges(batches, Sweep { rows, lambda, first, compliance: [stretch], rule: [stretch_rule] })
+        edges(batches, Sweep { rows, lambda, first, last, compliance: [stretch], rule: [stretch_rule] })
     };
     match bend {
         None => stretch_only(&model.edge_batches, rows, &mut lambda.edges),
@@ -117,6 +120,7 @@ pub fn sweep<R: Rule>(
                     rows,
                     lambda: &mut lambda.hinges,
                     first,
+                    last,
                     compliance: [stretch, bend],
                     rule: [stretch_rule, bend_rule],
                 },
@@ -248,7 +252,7 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> Constraints<'_, T, 
     /// The sweep, one lane at a time, in the same single precision.
     #[inline(always)]
     fn one_by_one(self) {
-        let Sweep { rows, lambda, first, compliance, rule } = self.sweep;
+        let Sweep { rows, lambda, first, last, compliance, rule } = self.sweep;
         for (batch, lambda) in self.batches.batches.iter().zip(lambda.iter_mut()) {
             if first {
                 *lambda = [[0.0; LANES]; F];
@@ -265,8 +269,10 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> Constraints<'_, T, 
                     compliance: std::array::from_fn(|f| one(compliance[f] * batch.factors[f][k])),
                 };
                 let (deltas, steps) = T::project(&read, rule);
-                for (lambda, delta) in lambda.iter_mut().zip(deltas) {
-                    lambda[k] += f64::from(delta.v);
+                if !last {
+                    for (lambda, delta) in lambda.iter_mut().zip(deltas) {
+                        lambda[k] += f64::from(delta.v);
+                    }
                 }
                 for (j, step) in steps.iter().enumerate() {
                     let row = &mut rows[batch.ids[j][k] as usize].0;
@@ -287,8 +293,8 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> pulp::WithSimd for 
     #[inline(always)]
     fn with_simd<S: Simd>(self, _: S) {
         let Avx2(kernel, simd) = self;
-        let Sweep { rows, lambda, first, compliance, rule } = kernel.sweep;
-        let eight = super::eight::Eight::new(simd, compliance, first);
+        let Sweep { rows, lambda, first, last, compliance, rule } = kernel.sweep;
+        let eight = super::eight::Eight::new(simd, compliance, (first, last));
         let batches = &kernel.batches.batches;
         // Two batches of a colour at a time, read before either is projected: their arithmetic is
         // independent, and the processor overlaps the two chains of long-latency roots and divisions.
@@ -364,8 +370,8 @@ mod tests {
     /// moves each particle as `expect` does in double precision (given the lane's item, positions,
     /// inverse masses and multipliers: each `Δλ` and each particle's move), to a relative 1e-5 of the
     /// lane's largest move; the eight-lane path (where the CPU has AVX2) and the one-lane path give
-    /// the same bits; and a substep's first sweep, whatever its multipliers hold, gives the bits of a
-    /// sweep from cleared multipliers.
+    /// the same bits; a substep's first sweep, whatever its multipliers hold, gives the bits of a
+    /// sweep from cleared multipliers; and its last leaves them as they are.
     fn agrees<T: Lane<K, F> + Packable<K, F>, const K: usize, const F: usize>(
         case: &str,
         make: impl Fn(usize) -> T,
@@ -383,17 +389,25 @@ mod tests {
         let batches = Batches::new(&items, &colours);
         // Each lane's batch and place.
         let lane = |k: usize| if k < 20 { (k / LANES, k % LANES) } else { (3 + (k - 20) / LANES, (k - 20) % LANES) };
-        let sweep = |path: Path, lambda: &mut [[[f64; LANES]; F]], first: bool| {
+        let sweep = |path: Path, lambda: &mut [[[f64; LANES]; F]], first: bool, last: bool| {
             let mut rows = Vec::new();
             batch::fill_rows(&start, &w, &mut rows);
-            let sweep = Sweep { rows: &mut rows, lambda, first, compliance: [COMPLIANCE; F], rule: [Compliance; F] };
-            run::<T, _, K, F>(&batches, sweep, path);
+            let compliance = [COMPLIANCE; F];
+            run::<T, _, K, F>(
+                &batches,
+                Sweep { rows: &mut rows, lambda, first, last, compliance, rule: [Compliance; F] },
+                path,
+            );
             rows
         };
         for path in [Path::Fastest, Path::Portable] {
             let (mut cleared, mut held) = (batches.multipliers(), vec![[[7.0; LANES]; F]; 6]);
-            let (from_zero, first) = (sweep(path, &mut cleared, false), sweep(path, &mut held, true));
+            let (from_zero, first) = (sweep(path, &mut cleared, false, false), sweep(path, &mut held, true, false));
             assert!(from_zero == first && cleared == held, "{case} {path:?}: the first sweep reads its multipliers");
+            let (mut some, mut kept) = (vec![[[7.0; LANES]; F]; 6], vec![[[7.0; LANES]; F]; 6]);
+            let (other, last) = (sweep(path, &mut some, false, false), sweep(path, &mut kept, false, true));
+            assert!(other == last, "{case} {path:?}: the last sweep moves the particles as any other");
+            assert!(kept == vec![[[7.0; LANES]; F]; 6] && some != kept, "{case} {path:?}: and leaves the multipliers");
         }
         let mut results = Vec::new();
         for path in [Path::Fastest, Path::Portable] {
@@ -403,7 +417,7 @@ mod tests {
                 (0..F).for_each(|f| lambda[b][f][l] = 1e-6 * (k + 40 * f) as f64);
             }
             let before = lambda.clone();
-            let rows = sweep(path, &mut lambda, false);
+            let rows = sweep(path, &mut lambda, false, false);
             let mut p = start.clone();
             batch::read_rows(&rows, &mut p);
             for (k, item) in items.iter().enumerate() {
