@@ -46,8 +46,9 @@ pub struct Batch<const K: usize, const F: usize> {
     pub ids: [[u32; LANES]; K],
     /// Each lane's constants.
     pub constants: [[f32; LANES]; CONSTANTS],
-    /// Each lane's compliance factors, constraint by constraint.
-    pub factors: [[f64; LANES]; F],
+    /// Each lane's compliance factors, constraint by constraint (single precision, as the sweeps
+    /// multiply them).
+    pub factors: [[f32; LANES]; F],
     /// How many lanes are filled (the rest are neither projected nor counted).
     pub count: usize,
 }
@@ -72,7 +73,7 @@ impl<const K: usize, const F: usize> Batches<K, F> {
                 let lane = |k: usize| &group[k.min(group.len() - 1)];
                 let ids = std::array::from_fn(|j| std::array::from_fn(|k| index(lane(k).particles()[j])));
                 let constants = std::array::from_fn(|c| std::array::from_fn(|k| lane(k).constants()[c] as f32));
-                let factors = std::array::from_fn(|f| std::array::from_fn(|k| lane(k).factors()[f]));
+                let factors = std::array::from_fn(|f| std::array::from_fn(|k| lane(k).factors()[f] as f32));
                 batches.push(Batch { ids, constants, factors, count: group.len() });
             }
             starts.push(batches.len());
@@ -131,8 +132,8 @@ mod tests {
                 assert_eq!(batch.constants[0][k], items[item].2 as f32);
                 assert_eq!(batch.constants[1][k], -items[item].2 as f32);
                 assert_eq!(batch.constants[2][k], 3.0 * items[item].2 as f32);
-                assert_eq!(batch.factors[0][k], 2.0 * items[item].2);
-                assert_eq!(batch.factors[1][k], 0.5 * items[item].2);
+                assert_eq!(batch.factors[0][k], (2.0 * items[item].2) as f32);
+                assert_eq!(batch.factors[1][k], (0.5 * items[item].2) as f32);
                 if k < batch.count {
                     seen.push(item);
                 } else {

@@ -17,7 +17,7 @@ use crate::linalg::real::{Lanes32, Real};
 #[derive(Clone, Copy)]
 pub struct Eight<const F: usize> {
     simd: V3,
-    compliance: [__m256d; F],
+    compliance: [__m256; F],
     index: __m256,
     /// The substep's first sweep: multipliers read as zero and overwritten.
     first: bool,
@@ -30,11 +30,11 @@ impl<const F: usize> Eight<F> {
     #[inline(always)]
     pub fn new(simd: V3, compliance: [f64; F], (first, last): (bool, bool)) -> Self {
         let index = cast([0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
-        let mut wide = [simd.avx._mm256_setzero_pd(); F];
-        for (wide, &c) in wide.iter_mut().zip(&compliance) {
-            *wide = simd.avx._mm256_set1_pd(c);
+        let mut lanes = [simd.avx._mm256_setzero_ps(); F];
+        for (lanes, &c) in lanes.iter_mut().zip(&compliance) {
+            *lanes = simd.avx._mm256_set1_ps(c as f32);
         }
-        Self { simd, compliance: wide, index, first, last }
+        Self { simd, compliance: lanes, index, first, last }
     }
 
     #[inline(always)]
@@ -64,9 +64,7 @@ impl<const F: usize> Eight<F> {
         }
         let (mut multipliers, mut compliances) = ([zero; F], [zero; F]);
         for f in 0..F {
-            let [lo, hi] = halves(&batch.factors[f]);
-            let c = [avx._mm256_mul_pd(lo, self.compliance[f]), avx._mm256_mul_pd(hi, self.compliance[f])];
-            compliances[f] = self.lanes(narrow(simd, c));
+            compliances[f] = self.lanes(avx._mm256_mul_ps(cast(batch.factors[f]), self.compliance[f]));
             if !self.first {
                 multipliers[f] = self.lanes(narrow(simd, halves(&lambda[f])));
             }

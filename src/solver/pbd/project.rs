@@ -266,7 +266,7 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> Constraints<'_, T, 
                     w: std::array::from_fn(|j| one(row(j)[3])),
                     constants: batch.constants.map(|c| one(f64::from(c[k]))),
                     lambda: std::array::from_fn(|f| one(lambda[f][k])),
-                    compliance: std::array::from_fn(|f| one(compliance[f] * batch.factors[f][k])),
+                    compliance: std::array::from_fn(|f| one(compliance[f]) * one(f64::from(batch.factors[f][k]))),
                 };
                 let (deltas, steps) = T::project(&read, rule);
                 if !last {
