@@ -22,7 +22,7 @@
 //!   compliances.
 //!
 //! Anchored and dragged particles have infinite mass (a dragged one is placed at its target).
-//! Collisions: `contact`; self-collision: `self_collision`; bodies: `bodies`.
+//! Collisions: `contact`; self-collision: `self_collision`; bodies: `bodies`; the parameters: `params`.
 
 mod batch;
 mod bodies;
@@ -30,6 +30,7 @@ mod contact;
 #[cfg(target_arch = "x86_64")]
 mod eight;
 mod model;
+mod params;
 mod project;
 mod self_collision;
 mod self_contact;
@@ -48,8 +49,8 @@ use crate::collision::Shape;
 use crate::energy::constraints;
 use crate::scene::Setup;
 use crate::solver::registry::Method;
-use crate::solver::wind::{self, Wind};
-use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Solver, SolverError, StepStats, check_finite};
+use crate::solver::wind::Wind;
+use crate::solver::{DragKind, DragSet, ParamValue, Solver, SolverError, StepStats, check_finite};
 
 /// Registry entry of position-based dynamics.
 pub const PBD: Method = Method {
@@ -73,82 +74,6 @@ pub enum Variant {
     /// Compliance with multipliers (Macklin et al. 2016).
     Xpbd,
 }
-
-const fn spec(
-    name: &'static str,
-    label: &'static str,
-    unit: &'static str,
-    help: &'static str,
-    min: f64,
-    max: f64,
-) -> ParamSpec {
-    ParamSpec { name, label, unit, help, min, max, log_scale: false, integer: false }
-}
-
-/// Parameters both methods have.
-const COMMON: [ParamSpec; 9] = [
-    spec("step", "time step", "s", "One step of the simulation (split into substeps).", 1e-5, 0.1),
-    ParamSpec {
-        integer: true,
-        ..spec("sweeps", "sweeps", "", "Gauss–Seidel sweeps over the constraints per substep.", 1.0, 1000.0)
-    },
-    ParamSpec {
-        log_scale: true,
-        ..spec("density", "density", "kg/m²", "Surface density; lumped to particles.", 1e-6, 1e4)
-    },
-    spec("gravity_y", "gravity y", "m/s²", "Vertical gravity (x and z from the scene).", -1e3, 1e3),
-    spec(
-        "damping",
-        "damping",
-        "1/s",
-        "Velocity damping rate of the cloth and the dynamic bodies (air drag).",
-        0.0,
-        100.0,
-    ),
-    spec(
-        "mu_s",
-        "static friction μ_s",
-        "",
-        "A contact sticks while its slip is within μ_s × its normal push.",
-        0.0,
-        10.0,
-    ),
-    spec("mu_k", "kinetic friction μ_k", "", "A sliding contact is slowed by μ_k × its normal push.", 0.0, 10.0),
-    ParamSpec {
-        log_scale: true,
-        ..spec("thickness", "thickness", "m", "Collision thickness of the cloth (bodies and itself).", 1e-6, 1.0)
-    },
-    spec(
-        "k_pressure",
-        "pressure k",
-        "",
-        "Balloon: held volume / rest volume (0: no volume constraint; closed meshes only).",
-        0.0,
-        100.0,
-    ),
-];
-
-/// Parameters of `pbd` only.
-const PBD_PARAMS: [ParamSpec; 2] = [
-    spec("pbd_stretch", "stretch k", "", "Stretch stiffness in [0, 1], corrected for the iteration count.", 0.0, 1.0),
-    spec("pbd_bend", "bending k", "", "Bending stiffness in [0, 1], corrected for the iteration count.", 0.0, 1.0),
-];
-
-/// Parameters of `xpbd` only.
-const XPBD_PARAMS: [ParamSpec; 3] = [
-    ParamSpec {
-        integer: true,
-        ..spec("substeps", "substeps", "", "Substeps per step (small substeps beat more sweeps).", 1.0, 1000.0)
-    },
-    ParamSpec {
-        log_scale: true,
-        ..spec("k_s", "stretch stiffness k_s", "N/m", "Edge stiffness: compliance 1/k_s.", 1e-6, 1e9)
-    },
-    ParamSpec {
-        log_scale: true,
-        ..spec("k_b", "bending rigidity k_b", "N·m", "Hinge stiffness k_b × 6|e|²/(A₁ + A₂).", 0.0, 1e3)
-    },
-];
 
 /// The position-based cloth.
 #[derive(Clone)]
@@ -209,10 +134,7 @@ impl Pbd {
                 reason: format!("material.k_pressure = {k} needs a closed mesh, and this mesh is not closed"),
             });
         }
-        let check = |name: &str, value: f64| -> Result<f64, SolverError> {
-            let all: Vec<ParamSpec> = COMMON.iter().chain(&PBD_PARAMS).chain(&XPBD_PARAMS).copied().collect();
-            ParamSpec::find(method, &all, name)?.check(value)
-        };
+        let check = |name: &str, value: f64| params::check(method, name, value);
         let n = model.rest.len();
         let thickness = check("thickness", s.thickness.unwrap_or(0.1 * model.mean_edge))?;
         let bodies: Vec<Rigid> = setup.bodies.iter().map(Rigid::new).collect();
@@ -518,14 +440,6 @@ impl Pbd {
     pub fn body_momentum(&self, i: usize) -> DVec3 {
         self.bodies.get(i).map_or(DVec3::ZERO, Rigid::momentum)
     }
-
-    fn all_params(&self) -> Vec<ParamSpec> {
-        let extra: &[ParamSpec] = match self.variant {
-            Variant::Pbd => &PBD_PARAMS,
-            Variant::Xpbd => &XPBD_PARAMS,
-        };
-        COMMON.iter().chain(extra).copied().collect()
-    }
 }
 
 impl Solver for Pbd {
@@ -572,67 +486,11 @@ impl Solver for Pbd {
     }
 
     fn params(&self) -> Vec<ParamValue> {
-        self.all_params()
-            .into_iter()
-            .map(|spec| {
-                let value = match spec.name {
-                    "step" => self.step,
-                    "sweeps" => self.sweeps as f64,
-                    "density" => self.density,
-                    "gravity_y" => self.gravity.y,
-                    "damping" => self.damping,
-                    "mu_s" => self.mu.0,
-                    "mu_k" => self.mu.1,
-                    "thickness" => self.thickness,
-                    "k_pressure" => self.k_pressure,
-                    "pbd_stretch" => self.stiffness.0,
-                    "pbd_bend" => self.stiffness.1,
-                    "substeps" => self.substeps as f64,
-                    "k_s" => self.k_s,
-                    _ => self.k_b,
-                };
-                ParamValue { spec, value }
-            })
-            .chain(self.wind.params())
-            .collect()
+        self.param_values()
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
-        if self.wind.set_param(name, value)? {
-            return Ok(());
-        }
-        let all: Vec<ParamSpec> = self.all_params().into_iter().chain(wind::PARAMS).collect();
-        let value = ParamSpec::find(self.method_name(), &all, name)?.check(value)?;
-        match name {
-            "step" => self.step = value,
-            "sweeps" => self.sweeps = value as usize,
-            "density" => self.density = value,
-            "gravity_y" => self.gravity.y = value,
-            "damping" => self.damping = value,
-            "mu_s" => self.mu.0 = value,
-            "mu_k" => self.mu.1 = value,
-            "thickness" => self.thickness = value,
-            "k_pressure" if value > 0.0 && !self.model.is_closed() => {
-                return Err(SolverError::BadParam {
-                    name: name.into(),
-                    value,
-                    reason: "needs a closed mesh, and this mesh is not closed".into(),
-                });
-            }
-            "k_pressure" => self.k_pressure = value,
-            "pbd_stretch" => self.stiffness.0 = value,
-            "pbd_bend" => self.stiffness.1 = value,
-            "substeps" => self.substeps = value as usize,
-            "k_s" => {
-                self.k_s = value;
-                self.compliance.0 = None;
-            }
-            _ => {
-                self.k_b = value;
-                self.compliance.1 = None;
-            }
-        }
-        Ok(())
+        self.set(name, value)
     }
 
     fn drags(&self) -> &DragSet {
