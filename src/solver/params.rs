@@ -24,6 +24,19 @@ pub struct ParamSpec {
 }
 
 impl ParamSpec {
+    /// A real parameter in `[min, max]` on a linear slider (set `log_scale` or `integer` with struct
+    /// update syntax).
+    pub const fn linear(
+        name: &'static str,
+        label: &'static str,
+        unit: &'static str,
+        help: &'static str,
+        min: f64,
+        max: f64,
+    ) -> Self {
+        Self { name, label, unit, help, min, max, log_scale: false, integer: false }
+    }
+
     /// Check a candidate value: finite, within `[min, max]`, whole if `integer`.
     pub fn check(&self, value: f64) -> Result<f64, SolverError> {
         let bad = |reason: String| SolverError::BadParam { name: self.name.to_string(), value, reason };

@@ -80,39 +80,48 @@ impl Variant {
     }
 }
 
-const fn spec(
-    name: &'static str,
-    label: &'static str,
-    unit: &'static str,
-    help: &'static str,
-    min: f64,
-    max: f64,
-) -> ParamSpec {
-    ParamSpec { name, label, unit, help, min, max, log_scale: false, integer: false }
-}
-
 const PARAMS: [ParamSpec; 10] = [
     ParamSpec {
         log_scale: true,
-        ..spec("k_area", "k_A (area)", "N/m", "Area (stretch) stiffness of the shell.", 0.0, 1e9)
+        ..ParamSpec::linear("k_area", "k_A (area)", "N/m", "Area (stretch) stiffness of the shell.", 0.0, 1e9)
     },
     ParamSpec {
         log_scale: true,
-        ..spec("k_length", "k_L (length)", "N/m", "Edge-length (shear) stiffness.", 0.0, 1e9)
+        ..ParamSpec::linear("k_length", "k_L (length)", "N/m", "Edge-length (shear) stiffness.", 0.0, 1e9)
     },
-    ParamSpec { log_scale: true, ..spec("k_bend", "k_B (bending)", "N·m", "Bending (hinge) stiffness.", 1e-9, 1e6) },
-    ParamSpec { log_scale: true, ..spec("density", "density", "kg/m²", "Surface density (lumped mass).", 1e-6, 1e4) },
-    spec("gravity", "gravity y", "m/s²", "Vertical gravity acceleration (negative is down).", -1000.0, 1000.0),
-    spec("rayleigh_alpha", "Rayleigh α", "1/s", "Mass-proportional damping C = αM + βK.", 0.0, 1000.0),
-    spec("rayleigh_beta", "Rayleigh β", "s", "Stiffness-proportional damping C = αM + βK.", 0.0, 10.0),
+    ParamSpec {
+        log_scale: true,
+        ..ParamSpec::linear("k_bend", "k_B (bending)", "N·m", "Bending (hinge) stiffness.", 1e-9, 1e6)
+    },
+    ParamSpec {
+        log_scale: true,
+        ..ParamSpec::linear("density", "density", "kg/m²", "Surface density (lumped mass).", 1e-6, 1e4)
+    },
+    ParamSpec::linear(
+        "gravity",
+        "gravity y",
+        "m/s²",
+        "Vertical gravity acceleration (negative is down).",
+        -1000.0,
+        1000.0,
+    ),
+    ParamSpec::linear("rayleigh_alpha", "Rayleigh α", "1/s", "Mass-proportional damping C = αM + βK.", 0.0, 1000.0),
+    ParamSpec::linear("rayleigh_beta", "Rayleigh β", "s", "Stiffness-proportional damping C = αM + βK.", 0.0, 10.0),
     ParamSpec {
         integer: true,
-        ..spec("modes", "modes", "", "Number of vibration modes (recomputed in the background).", 1.0, 256.0)
+        ..ParamSpec::linear(
+            "modes",
+            "modes",
+            "",
+            "Number of vibration modes (recomputed in the background).",
+            1.0,
+            256.0,
+        )
     },
-    spec("step", "time step", "s", "Fixed step of the modal integrator.", 1e-5, 0.1),
+    ParamSpec::linear("step", "time step", "s", "Fixed step of the modal integrator.", 1e-5, 0.1),
     ParamSpec {
         log_scale: true,
-        ..spec(
+        ..ParamSpec::linear(
             "constraint_damping",
             "drag damping",
             "",

@@ -5,30 +5,26 @@ use super::{Pbd, Variant};
 use crate::solver::wind;
 use crate::solver::{ParamSpec, ParamValue, SolverError};
 
-const fn spec(
-    name: &'static str,
-    label: &'static str,
-    unit: &'static str,
-    help: &'static str,
-    min: f64,
-    max: f64,
-) -> ParamSpec {
-    ParamSpec { name, label, unit, help, min, max, log_scale: false, integer: false }
-}
-
 /// Parameters both methods have.
 const COMMON: [ParamSpec; 9] = [
-    spec("step", "time step", "s", "One step of the simulation (split into substeps).", 1e-5, 0.1),
+    ParamSpec::linear("step", "time step", "s", "One step of the simulation (split into substeps).", 1e-5, 0.1),
     ParamSpec {
         integer: true,
-        ..spec("sweeps", "sweeps", "", "Gauss–Seidel sweeps over the constraints per substep.", 1.0, 1000.0)
+        ..ParamSpec::linear(
+            "sweeps",
+            "sweeps",
+            "",
+            "Gauss–Seidel sweeps over the constraints per substep.",
+            1.0,
+            1000.0,
+        )
     },
     ParamSpec {
         log_scale: true,
-        ..spec("density", "density", "kg/m²", "Surface density; lumped to particles.", 1e-6, 1e4)
+        ..ParamSpec::linear("density", "density", "kg/m²", "Surface density; lumped to particles.", 1e-6, 1e4)
     },
-    spec("gravity_y", "gravity y", "m/s²", "Vertical gravity (x and z from the scene).", -1e3, 1e3),
-    spec(
+    ParamSpec::linear("gravity_y", "gravity y", "m/s²", "Vertical gravity (x and z from the scene).", -1e3, 1e3),
+    ParamSpec::linear(
         "damping",
         "damping",
         "1/s",
@@ -36,7 +32,7 @@ const COMMON: [ParamSpec; 9] = [
         0.0,
         100.0,
     ),
-    spec(
+    ParamSpec::linear(
         "mu_s",
         "static friction μ_s",
         "",
@@ -44,12 +40,26 @@ const COMMON: [ParamSpec; 9] = [
         0.0,
         10.0,
     ),
-    spec("mu_k", "kinetic friction μ_k", "", "A sliding contact is slowed by μ_k × its normal push.", 0.0, 10.0),
+    ParamSpec::linear(
+        "mu_k",
+        "kinetic friction μ_k",
+        "",
+        "A sliding contact is slowed by μ_k × its normal push.",
+        0.0,
+        10.0,
+    ),
     ParamSpec {
         log_scale: true,
-        ..spec("thickness", "thickness", "m", "Collision thickness of the cloth (bodies and itself).", 1e-6, 1.0)
+        ..ParamSpec::linear(
+            "thickness",
+            "thickness",
+            "m",
+            "Collision thickness of the cloth (bodies and itself).",
+            1e-6,
+            1.0,
+        )
     },
-    spec(
+    ParamSpec::linear(
         "k_pressure",
         "pressure k",
         "",
@@ -61,23 +71,44 @@ const COMMON: [ParamSpec; 9] = [
 
 /// Parameters of `pbd` only.
 const PBD_PARAMS: [ParamSpec; 2] = [
-    spec("pbd_stretch", "stretch k", "", "Stretch stiffness in [0, 1], corrected for the iteration count.", 0.0, 1.0),
-    spec("pbd_bend", "bending k", "", "Bending stiffness in [0, 1], corrected for the iteration count.", 0.0, 1.0),
+    ParamSpec::linear(
+        "pbd_stretch",
+        "stretch k",
+        "",
+        "Stretch stiffness in [0, 1], corrected for the iteration count.",
+        0.0,
+        1.0,
+    ),
+    ParamSpec::linear(
+        "pbd_bend",
+        "bending k",
+        "",
+        "Bending stiffness in [0, 1], corrected for the iteration count.",
+        0.0,
+        1.0,
+    ),
 ];
 
 /// Parameters of `xpbd` only.
 const XPBD_PARAMS: [ParamSpec; 3] = [
     ParamSpec {
         integer: true,
-        ..spec("substeps", "substeps", "", "Substeps per step (small substeps beat more sweeps).", 1.0, 1000.0)
+        ..ParamSpec::linear(
+            "substeps",
+            "substeps",
+            "",
+            "Substeps per step (small substeps beat more sweeps).",
+            1.0,
+            1000.0,
+        )
     },
     ParamSpec {
         log_scale: true,
-        ..spec("k_s", "stretch stiffness k_s", "N/m", "Edge stiffness: compliance 1/k_s.", 1e-6, 1e9)
+        ..ParamSpec::linear("k_s", "stretch stiffness k_s", "N/m", "Edge stiffness: compliance 1/k_s.", 1e-6, 1e9)
     },
     ParamSpec {
         log_scale: true,
-        ..spec("k_b", "bending rigidity k_b", "N·m", "Hinge stiffness k_b × 6|e|²/(A₁ + A₂).", 0.0, 1e3)
+        ..ParamSpec::linear("k_b", "bending rigidity k_b", "N·m", "Hinge stiffness k_b × 6|e|²/(A₁ + A₂).", 0.0, 1e3)
     },
 ];
 
