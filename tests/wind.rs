@@ -1,5 +1,6 @@
 //! Wind, one implementation for every method: a strip facing the wind is pushed along it by shells
-//! (modal, discrete), cloth and position-based cloth alike, and one edge-on is not moved at all; a
+//! (modal, discrete), cloth and position-based cloth alike, and one edge-on is not moved at all (but
+//! for the rounding of the position-based sweeps' single precision); a
 //! pinned flag's deflection grows with the wind speed and is nothing without wind; gusts repeat with
 //! their seed.
 
@@ -47,7 +48,12 @@ fn every_method_is_pushed_by_a_wind_facing_it_and_not_by_one_along_it() {
             along.length()
         );
         assert!(facing.y > 1e-4, "{method}: the wind facing the strip pushes it along the wind ({facing})");
-        assert!(along.length() < 1e-12, "{method}: edge-on, the strip feels nothing ({along})");
+        // The position-based sweeps hold positions in single precision (relative to the first
+        // particle): a strip at rest there jitters by the rounding of its rows, stiffened by XPBD's
+        // small substeps (measured: at most 0.2 µm with `pbd`, 9 µm with `xpbd`, not growing over
+        // 10 s), where the wind facing it moves it 0.4 m.
+        let still = if method.ends_with("pbd") { 1e-5 } else { 1e-12 };
+        assert!(along.length() < still, "{method}: edge-on, the strip feels nothing ({along})");
     }
 }
 

@@ -36,3 +36,35 @@ pub fn avx2<K: Kernel>(kernel: K) -> K::Output {
     }
     pulp::Arch::new().dispatch(Run(kernel))
 }
+
+/// A hot loop written in AVX2 + FMA instructions (a [`pulp::x86::V3`]), with its arguments.
+#[cfg(target_arch = "x86_64")]
+pub trait Eight {
+    /// What the loop returns.
+    type Output;
+    /// Run the loop with these instructions (mark the implementation `#[inline(always)]`).
+    fn run(self, simd: pulp::x86::V3) -> Self::Output;
+}
+
+/// Run `kernel` where the CPU has AVX2 + FMA (else give it back), compiled with AVX-512 enabled
+/// where the CPU has that too: the same instructions, but 32 vector registers instead of 16 to keep
+/// a kernel's lanes in, so the compiler spills far fewer of them (the position-based sweeps measured
+/// 2–5% faster).
+#[cfg(target_arch = "x86_64")]
+pub fn eight<K: Eight>(kernel: K) -> Result<K::Output, K> {
+    struct Run<K>(K, pulp::x86::V3);
+    impl<K: Eight> pulp::WithSimd for Run<K> {
+        type Output = K::Output;
+        #[inline(always)]
+        fn with_simd<S: pulp::Simd>(self, _: S) -> K::Output {
+            self.0.run(self.1)
+        }
+    }
+    if let Some(wide) = pulp::x86::V4::try_new() {
+        return Ok(pulp::Simd::vectorize(wide, Run(kernel, *wide)));
+    }
+    match pulp::x86::V3::try_new() {
+        Some(simd) => Ok(pulp::Simd::vectorize(simd, Run(kernel, simd))),
+        None => Err(kernel),
+    }
+}

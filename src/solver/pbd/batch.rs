@@ -1,28 +1,83 @@
 //! The cloth's constraints as the sweeps read them: packed eight lanes to a batch, colour by colour,
 //! with each lane's particles, constants and compliance factors side by side (a lane is one
 //! constraint, or an interior edge's stretch and its hinge's bending, which share two particles); and
-//! the particles as 32-byte rows (position and inverse mass), so that one load fetches everything a
-//! lane needs of a particle.
+//! the particles as 16-byte rows (position relative to the first particle, and inverse mass, in single
+//! precision), so that one load fetches everything a lane needs of a particle.
+//!
+//! The rows are single precision relative to the first particle, so a position in them is good to
+//! half a unit in the last place of its distance from that particle (60 nm across a 1 m cloth),
+//! wherever the cloth is. The positions themselves stay in double precision: reading the rows back
+//! adds to each particle what the sweeps moved its row, so a particle the sweeps did not move (an
+//! anchored one, say) keeps its position to the bit.
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 
 /// Lanes a batch holds: those of an AVX2 single-precision register.
 pub const LANES: usize = 8;
 
-/// A particle as the sweeps read it: `[x, y, z, w]` (`w` the inverse mass), aligned to 32 bytes.
+/// A particle as the sweeps read it: `[x, y, z, w]` (`w` the inverse mass), aligned to 16 bytes.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-#[repr(C, align(32))]
-pub struct Row(pub [f64; 4]);
+#[repr(C, align(16))]
+pub struct Row(pub [f32; 4]);
 
-/// The rows of particles `p` with inverse masses `w`, into `rows` (resized to fit).
-pub fn fill_rows(p: &[DVec3], w: &[f64], rows: &mut Vec<Row>) {
-    rows.clear();
-    rows.extend(p.iter().zip(w).map(|(p, &w)| Row([p.x, p.y, p.z, w])));
+/// The particles' rows and their origin.
+#[derive(Debug, Clone, Default)]
+pub struct Rows {
+    /// One row per particle, then empty rows to a power of two ([`Indexed`]).
+    rows: Vec<Row>,
+    /// The particles.
+    count: usize,
+    /// Where the rows' positions are relative to, m.
+    origin: DVec3,
 }
 
-/// The positions the sweeps left in `rows`, back into `p`.
-pub fn read_rows(rows: &[Row], p: &mut [DVec3]) {
-    p.iter_mut().zip(rows).for_each(|(p, r)| *p = DVec3::new(r.0[0], r.0[1], r.0[2]));
+impl Rows {
+    /// The rows of particles `p` with inverse masses `w`, relative to the first particle.
+    pub fn fill(&mut self, p: &[DVec3], w: &[f64]) {
+        self.origin = p.first().copied().unwrap_or_default();
+        self.count = p.len();
+        self.rows.clear();
+        self.rows.extend(p.iter().zip(w).map(|(p, &w)| {
+            let r = (*p - self.origin).as_vec3();
+            Row([r.x, r.y, r.z, w as f32])
+        }));
+        self.rows.resize(p.len().next_power_of_two(), Row::default());
+    }
+
+    /// Add to each of `p` (the positions the rows were filled from) what the sweeps moved its row.
+    pub fn read(&self, p: &mut [DVec3]) {
+        for (p, r) in p.iter_mut().zip(self.particles()) {
+            let before = (*p - self.origin).as_vec3().as_dvec3();
+            *p += Vec3::new(r.0[0], r.0[1], r.0[2]).as_dvec3() - before;
+        }
+    }
+
+    /// The particles' rows.
+    pub fn particles(&self) -> &[Row] {
+        &self.rows[..self.count]
+    }
+
+    /// The rows as the kernels index them.
+    pub fn indexed(&self) -> Indexed<&[Row]> {
+        Indexed { rows: &self.rows, mask: self.rows.len().saturating_sub(1) }
+    }
+
+    /// The rows as the kernels index and move them.
+    pub fn indexed_mut(&mut self) -> Indexed<&mut [Row]> {
+        Indexed { mask: self.rows.len().saturating_sub(1), rows: &mut self.rows }
+    }
+}
+
+/// Rows as the kernels index them: as many as a power of two, that number less one kept as a mask.
+/// A particle's index `i` is `i & mask`, and indexing rows sliced to `..=mask` by `i & mask` needs no
+/// bounds check (the kernel reads the mask as a number apart from the slice's length, so the
+/// compiler cannot fold the check back into one against the length).
+#[derive(Debug, Clone, Copy)]
+pub struct Indexed<R> {
+    /// The rows.
+    pub rows: R,
+    /// Their number less one.
+    pub mask: usize,
 }
 
 /// Constants a batch keeps per lane (a rest length, a rest angle's cosine and sine).
@@ -49,7 +104,8 @@ pub struct Batch<const K: usize, const F: usize> {
     /// Each lane's compliance factors, constraint by constraint (single precision, as the sweeps
     /// multiply them).
     pub factors: [[f32; LANES]; F],
-    /// How many lanes are filled (the rest are neither projected nor counted).
+    /// How many lanes are filled (the rest, repeating the last, move its particles as it does and
+    /// add nothing to the multipliers).
     pub count: usize,
 }
 
@@ -144,16 +200,28 @@ mod tests {
         assert_eq!(seen, (0..21).collect::<Vec<_>>());
     }
 
-    /// Rows carry positions and inverse masses and give the positions back unchanged.
+    /// Rows carry inverse masses; positions the sweeps did not move come back to the bit, wherever
+    /// the cloth is, and a move comes back to within a unit in the last place of the moved particle's
+    /// distance from the first.
     #[test]
-    fn rows_round_trip_positions_and_carry_inverse_masses() {
-        let p: Vec<DVec3> = (0..5).map(|i| DVec3::new(i as f64, 0.1 / (i as f64 + 1.0), -1e9 * i as f64)).collect();
+    fn rows_give_back_unmoved_positions_exactly_and_moves_to_the_cloths_precision() {
+        let p: Vec<DVec3> =
+            (0..5).map(|i| DVec3::new(1e3 + 0.1 * i as f64, 0.1 / (i as f64 + 1.0), -1e5 - 0.3 * i as f64)).collect();
         let w = [0.0, 1.0, 2.5, 1e6, 3.0];
-        let mut rows = vec![Row::default(); 2];
-        fill_rows(&p, &w, &mut rows);
-        assert_eq!(rows.iter().map(|r| r.0[3]).collect::<Vec<_>>(), w.to_vec());
-        let mut back = vec![DVec3::NAN; 5];
-        read_rows(&rows, &mut back);
-        assert_eq!(back, p);
+        let mut rows = Rows::default();
+        rows.fill(&p, &w);
+        assert_eq!(rows.particles().iter().map(|r| f64::from(r.0[3])).collect::<Vec<_>>(), w.to_vec());
+        let indexed = rows.indexed();
+        assert_eq!((indexed.rows.len(), indexed.mask), (8, 7), "five rows and three empty ones");
+        let mut back = p.clone();
+        rows.read(&mut back);
+        assert_eq!(back, p, "unmoved rows");
+        let step = DVec3::new(1e-4, -2e-5, 3e-3);
+        rows.indexed_mut().rows[2].0[..3].iter_mut().zip(step.to_array()).for_each(|(r, s)| *r += s as f32);
+        rows.read(&mut back);
+        let far = (p[2] + step - p[0]).abs().max_element();
+        let error = (back[2] - p[2] - step).abs().max_element();
+        assert!(error <= far * f64::from(f32::EPSILON), "moved by {:?}: off by {error:e}", back[2] - p[2]);
+        assert_eq!([back[0], back[1], back[3], back[4]], [p[0], p[1], p[3], p[4]], "the others");
     }
 }

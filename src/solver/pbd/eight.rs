@@ -1,24 +1,26 @@
 //! The eight-lane sweep's moves between a batch's particle rows and its lanes (AVX2): each lane's
-//! row (position and inverse mass, 32 bytes) loaded whole, made relative to the lane's first particle
-//! in double precision, narrowed and transposed into registers of x, y, z and inverse mass; and the
-//! moves transposed back and added to the rows in double precision, as are the multipliers.
+//! row (position and inverse mass, 16 bytes of single precision) loaded whole and transposed into
+//! registers of x, y, z and inverse mass, made relative to the lane's first particle; and the moved
+//! positions transposed back and stored whole. The multipliers are added in double precision.
 
-use std::arch::x86_64::{__m128, __m256, __m256d};
+use std::arch::x86_64::{__m256, __m256d};
 
 use pulp::cast;
 use pulp::x86::V3;
 
-use super::batch::{Batch, CONSTANTS, LANES, Row};
+use super::batch::{Batch, CONSTANTS, Indexed, LANES, Row};
 use super::project::{Projected, Read};
-use crate::linalg::real::{Lanes32, Real};
+use crate::linalg::real::Lanes32;
 
-/// What reading and writing a batch's lanes needs besides the batch: the instruction set, the
-/// sweep's compliances and the lanes' indices.
+/// A batch's rows as read, particle slot by slot: registers of x, y, z and inverse mass.
+pub type Raw<const K: usize> = [[__m256; 4]; K];
+
+/// What reading and writing a batch's lanes needs besides the batch: the instruction set and the
+/// sweep's compliances.
 #[derive(Clone, Copy)]
 pub struct Eight<const F: usize> {
     simd: V3,
     compliance: [__m256; F],
-    index: __m256,
     /// The substep's first sweep: multipliers read as zero and overwritten.
     first: bool,
     /// The substep's last sweep: multipliers left as they are.
@@ -29,12 +31,11 @@ impl<const F: usize> Eight<F> {
     /// For a sweep of these compliances, the substep's first or not and last or not.
     #[inline(always)]
     pub fn new(simd: V3, compliance: [f64; F], (first, last): (bool, bool)) -> Self {
-        let index = cast([0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
         let mut lanes = [simd.avx._mm256_setzero_ps(); F];
         for (lanes, &c) in lanes.iter_mut().zip(&compliance) {
             *lanes = simd.avx._mm256_set1_ps(c as f32);
         }
-        Self { simd, compliance: lanes, index, first, last }
+        Self { simd, compliance: lanes, first, last }
     }
 
     #[inline(always)]
@@ -42,25 +43,29 @@ impl<const F: usize> Eight<F> {
         Lanes32 { simd: self.simd, v: cast(v) }
     }
 
-    /// A batch's lanes as the projection reads them.
+    /// A batch's lanes as the projection reads them, and its rows as they were (transposed), for
+    /// [`Self::write`].
     #[inline(always)]
     pub fn read<const K: usize>(
         self,
-        rows: &[Row],
+        Indexed { rows, mask }: Indexed<&[Row]>,
         batch: &Batch<K, F>,
         lambda: &[[f64; LANES]; F],
-    ) -> Read<Lanes32<V3>, K, F> {
+    ) -> (Read<Lanes32<V3>, K, F>, Raw<K>) {
         let (simd, avx) = (self.simd, self.simd.avx);
-        // Each lane's origin: its first particle, with no inverse mass to subtract.
-        let mut origins = [avx._mm256_setzero_pd(); LANES];
-        for (origin, &i) in origins.iter_mut().zip(&batch.ids[0]) {
-            *origin = avx._mm256_blend_pd::<0b1000>(cast(rows[i as usize].0), avx._mm256_setzero_pd());
+        // Loops, not closures: a closure the compiler declines to inline would run without AVX2.
+        let mut raw: Raw<K> = [[avx._mm256_setzero_ps(); 4]; K];
+        for (raw, ids) in raw.iter_mut().zip(&batch.ids) {
+            *raw = gather(simd, rows, mask, ids);
         }
         let zero = self.lanes(avx._mm256_setzero_ps());
         let (mut x, mut w) = ([[zero; 3]; K], [zero; K]);
         for j in 0..K {
-            let [px, py, pz, pw] = gather(simd, rows, &batch.ids[j], &origins);
-            (x[j], w[j]) = ([self.lanes(px), self.lanes(py), self.lanes(pz)], self.lanes(pw));
+            // Relative to the lane's first particle (exact for neighbours, Sterbenz).
+            for a in 0..3 {
+                x[j][a] = self.lanes(avx._mm256_sub_ps(raw[j][a], raw[0][a]));
+            }
+            w[j] = self.lanes(raw[j][3]);
         }
         let (mut multipliers, mut compliances) = ([zero; F], [zero; F]);
         for f in 0..F {
@@ -73,23 +78,23 @@ impl<const F: usize> Eight<F> {
         for (constant, values) in constants.iter_mut().zip(&batch.constants) {
             *constant = self.lanes(cast(*values));
         }
-        Read { x, w, constants, lambda: multipliers, compliance: compliances }
+        (Read { x, w, constants, lambda: multipliers, compliance: compliances }, raw)
     }
 
-    /// A batch's projection, added to its rows and multipliers.
+    /// A batch's projection, added to its rows (as [`Self::read`] gave them) and multipliers.
     #[inline(always)]
     pub fn write<const K: usize>(
         self,
-        rows: &mut [Row],
+        Indexed { rows, mask }: Indexed<&mut [Row]>,
         batch: &Batch<K, F>,
         lambda: &mut [[f64; LANES]; F],
+        raw: Raw<K>,
         (deltas, steps): Projected<Lanes32<V3>, K, F>,
     ) {
         let (simd, avx) = (self.simd, self.simd.avx);
-        // Lanes past the batch's count add nothing to their multipliers.
-        let real = self.lanes(self.index).less(self.lanes(avx._mm256_set1_ps(batch.count as f32)));
+        // Lanes past the batch's count, repeating its last, keep its multipliers: the same each sweep.
         for (lambda, delta) in lambda.iter_mut().zip(deltas).filter(|_| !self.last) {
-            let delta: __m256 = cast(Lanes32::select(real, delta, self.lanes(avx._mm256_setzero_ps())).v);
+            let delta: __m256 = cast(delta.v);
             let wide = [
                 avx._mm256_cvtps_pd(avx._mm256_castps256_ps128(delta)),
                 avx._mm256_cvtps_pd(avx._mm256_extractf128_ps::<1>(delta)),
@@ -102,8 +107,10 @@ impl<const F: usize> Eight<F> {
             };
             *lambda = [lo[0], lo[1], lo[2], lo[3], hi[0], hi[1], hi[2], hi[3]];
         }
-        for (ids, [sx, sy, sz]) in batch.ids.iter().zip(steps) {
-            scatter(simd, rows, ids, batch.count, [cast(sx.v), cast(sy.v), cast(sz.v)]);
+        for ((ids, [sx, sy, sz]), [x, y, z, w]) in batch.ids.iter().zip(steps).zip(raw) {
+            let moved =
+                [avx._mm256_add_ps(x, cast(sx.v)), avx._mm256_add_ps(y, cast(sy.v)), avx._mm256_add_ps(z, cast(sz.v))];
+            scatter(simd, rows, mask, ids, [moved[0], moved[1], moved[2], w]);
         }
     }
 }
@@ -139,32 +146,28 @@ fn transpose(simd: V3, a: [__m256; 4]) -> [__m256; 4] {
     ]
 }
 
-/// The rows `ids` relative to each lane's origin, in single precision, as registers of x, y, z
-/// and inverse mass.
+/// The rows `ids` as registers of x, y, z and inverse mass.
 #[inline(always)]
-fn gather(simd: V3, rows: &[Row], ids: &[u32; LANES], origins: &[__m256d; LANES]) -> [__m256; 4] {
+pub fn gather(simd: V3, rows: &[Row], mask: usize, ids: &[u32; LANES]) -> [__m256; 4] {
     let avx = simd.avx;
-    let mut r: [__m128; LANES] = [cast([0.0f32; 4]); LANES];
-    for k in 0..LANES {
-        r[k] = avx._mm256_cvtpd_ps(avx._mm256_sub_pd(cast(rows[ids[k] as usize].0), origins[k]));
-    }
     // Lanes k and k + 4 side by side: x y z w | x y z w.
     let mut a = [avx._mm256_setzero_ps(); 4];
-    for k in 0..4 {
-        a[k] = avx._mm256_insertf128_ps::<1>(avx._mm256_castps128_ps256(r[k]), r[k + 4]);
+    for (k, a) in a.iter_mut().enumerate() {
+        let (low, high) = (cast(rows[ids[k] as usize & mask].0), cast(rows[ids[k + 4] as usize & mask].0));
+        *a = avx._mm256_insertf128_ps::<1>(avx._mm256_castps128_ps256(low), high);
     }
     transpose(simd, a)
 }
 
-/// Add the moves `[x, y, z]` of the first `count` lanes to the rows `ids`, in double precision.
+/// Store the lanes of registers of x, y, z and inverse mass as the rows `ids`. Lanes past a batch's
+/// count repeat its last lane, so they store the rows it stores, with the same values, after it.
 #[inline(always)]
-fn scatter(simd: V3, rows: &mut [Row], ids: &[u32; LANES], count: usize, [x, y, z]: [__m256; 3]) {
+fn scatter(simd: V3, rows: &mut [Row], mask: usize, ids: &[u32; LANES], lanes: [__m256; 4]) {
     let avx = simd.avx;
-    // Lanes k and k + 4 of a[k]: x y z 0 | x y z 0.
-    let a = transpose(simd, [x, y, z, avx._mm256_setzero_ps()]);
-    for (k, &i) in ids.iter().enumerate().take(count) {
+    // Lanes k and k + 4 of a[k]: x y z w | x y z w.
+    let a = transpose(simd, lanes);
+    for (k, &i) in ids.iter().enumerate() {
         let half = if k < 4 { avx._mm256_castps256_ps128(a[k]) } else { avx._mm256_extractf128_ps::<1>(a[k - 4]) };
-        let row = &mut rows[i as usize];
-        row.0 = cast(avx._mm256_add_pd(cast(row.0), avx._mm256_cvtps_pd(half)));
+        rows[i as usize & mask].0 = cast(half);
     }
 }

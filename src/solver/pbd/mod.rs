@@ -34,12 +34,13 @@ mod params;
 mod project;
 mod self_collision;
 mod self_contact;
+mod turn;
 
 use std::time::Instant;
 
 use glam::{DQuat, DVec3};
 
-use self::batch::Row;
+use self::batch::Rows;
 use self::bodies::Rigid;
 use self::contact::{SampleHit, Touch};
 use self::model::Model;
@@ -108,7 +109,9 @@ pub struct Pbd {
     k_s: f64,
     k_b: f64,
     // Scratch.
-    rows: Vec<Row>,
+    rows: Rows,
+    /// The substep's start as rows, for self-collision's test of its flat patches.
+    start_rows: Rows,
     multipliers: Multipliers,
     gradient: Vec<DVec3>,
     touches: Vec<Touch>,
@@ -173,7 +176,8 @@ impl Pbd {
             compliance: (m.compliance_stretch, m.compliance_bend),
             k_s: check("k_s", m.k_s)?,
             k_b: check("k_b", m.k_b)?,
-            rows: Vec::with_capacity(model.rest.len()),
+            rows: Rows::default(),
+            start_rows: Rows::default(),
             multipliers: Multipliers::new(&model),
             gradient: vec![DVec3::ZERO; n],
             touches: Vec::new(),
@@ -264,13 +268,16 @@ impl Pbd {
         for b in &mut self.bodies {
             b.predict(t, h, self.gravity);
         }
+        self.rows.fill(&self.p, &self.w);
         self.detect(h);
         let (alpha_stretch, alpha_bend) = self.compliances();
         let sweeps = self.sweeps as f64;
         let correction = |k: f64| 1.0 - (1.0 - k).powf(1.0 / sweeps);
         for sweep in 0..self.sweeps {
             let (first, last) = (sweep == 0, sweep + 1 == self.sweeps);
-            batch::fill_rows(&self.p, &self.w, &mut self.rows);
+            if !first {
+                self.rows.fill(&self.p, &self.w);
+            }
             let (rows, m, lambda) = (&mut self.rows, &self.model, &mut self.multipliers);
             match self.variant {
                 Variant::Pbd => {
@@ -285,7 +292,7 @@ impl Pbd {
                     project::sweep(m, rows, lambda, (first, last), (stretch, Compliance), bend);
                 }
             }
-            batch::read_rows(&self.rows, &mut self.p);
+            self.rows.read(&mut self.p);
             let (p, w) = (&mut self.p, &self.w);
             if let (Some(v0), true) = (self.model.six_volume, self.k_pressure > 0.0) {
                 project::volume(&self.model.triangles, p, w, self.k_pressure * v0, &mut self.gradient);
@@ -366,7 +373,9 @@ impl Pbd {
             }
         }
         if let Some(sc) = &mut self.self_collision {
-            sc.find(&self.x, &self.p, &self.model.triangles, self.thickness);
+            self.start_rows.fill(&self.x, &self.w);
+            let rows = [self.start_rows.indexed(), self.rows.indexed()];
+            sc.find([&self.x, &self.p], rows, &self.model.triangles, self.thickness);
         }
     }
 

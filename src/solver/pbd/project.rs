@@ -11,22 +11,24 @@
 //! projecting them one after another or all at once gives the same positions.
 //!
 //! The sweeps take them eight at a time where the CPU has AVX2, in single precision ([`Lanes32`], with
-//! fused multiply-adds), from batches packed once ([`super::batch`]), moving the particles' rows in
-//! and out of the lanes as [`super::eight`] says; the constraint functions — the same source the
-//! scalar ones are ([`Real`]) — run on all lanes at once. Sixteen lanes (AVX-512: two batches read
-//! as here, joined for the arithmetic, four batches in flight) gave the same bits and measured 2–4%
-//! faster on the 10,000-particle sheet but 3–6% slower on the 961-particle drape: the row moves,
-//! which stay as many shuffles per lane, bound the sweep. Eight lanes of double precision on
-//! AVX-512 measured 20% slower (its divisions and roots, and half the lanes per instruction of the
-//! arithmetic). A CPU without AVX2 runs the same arithmetic one lane at a time.
+//! fused multiply-adds), from batches packed once ([`super::batch`]), moving the particles' rows —
+//! positions in single precision — in and out of the lanes as [`super::eight`] says; the constraint
+//! functions — the same source the scalar ones are ([`Real`]) — run on all lanes at once. The
+//! kernel is compiled with AVX-512's 32 registers where the CPU has them ([`crate::linalg::isa::eight`]),
+//! indexes the rows by masked indices (no bounds checks) and writes every lane of a batch, the ones
+//! past its count repeating its last. Measured on the 10,000-particle sheet (`BENCHMARKS.md`): rows
+//! in single precision 4% faster than double-precision rows narrowed lane by lane, the registers
+//! 2–5%, the masked indices 7%, and writing every lane instead of testing each against the count 11%.
+//! Earlier, with double-precision rows: sixteen lanes (two batches joined for the arithmetic) gained
+//! 2–4% on the sheet and lost 3–6% on the 961-particle drape; eight lanes of double precision on
+//! AVX-512 lost 20% (its divisions and roots). A CPU without AVX2 runs the same arithmetic one lane
+//! at a time.
 
 use std::marker::PhantomData;
 
 use glam::DVec3;
 
-use pulp::Simd;
-
-use super::batch::{Batches, CONSTANTS, LANES, Row};
+use super::batch::{Batches, CONSTANTS, Indexed, LANES, Row, Rows};
 use super::model::{Edge, Model, StretchBend};
 use crate::energy::constraints;
 use crate::linalg::real::{self, Lanes32, Real, V3};
@@ -63,7 +65,7 @@ impl Rule for Compliance {
 /// What a sweep over lanes of `F` constraints needs besides the lanes.
 pub struct Sweep<'a, R, const F: usize> {
     /// Predicted positions and inverse masses, the positions corrected in place.
-    pub rows: &'a mut [Row],
+    pub rows: Indexed<&'a mut [Row]>,
     /// One multiplier per constraint (at its batch, its place in the lane, and the lane),
     /// accumulated over the substep's iterations.
     pub lambda: &'a mut [[[f64; LANES]; F]],
@@ -103,7 +105,7 @@ impl Multipliers {
 /// every edge. `first` and `last` say where the sweep stands in its substep ([`Sweep`]).
 pub fn sweep<R: Rule>(
     model: &Model,
-    rows: &mut [Row],
+    rows: &mut Rows,
     lambda: &mut Multipliers,
     (first, last): (bool, bool),
     (stretch, stretch_rule): (f64, R),
@@ -113,13 +115,13 @@ pub fn sweep<R: Rule>(
         edges(batches, Sweep { rows, lambda, first, last, compliance: [stretch], rule: [stretch_rule] })
     };
     match bend {
-        None => stretch_only(&model.edge_batches, rows, &mut lambda.edges),
+        None => stretch_only(&model.edge_batches, rows.indexed_mut(), &mut lambda.edges),
         Some((bend, bend_rule)) => {
-            stretch_only(&model.boundary_batches, &mut *rows, &mut lambda.boundary);
+            stretch_only(&model.boundary_batches, rows.indexed_mut(), &mut lambda.boundary);
             hinges(
                 &model.hinge_batches,
                 Sweep {
-                    rows,
+                    rows: rows.indexed_mut(),
                     lambda: &mut lambda.hinges,
                     first,
                     last,
@@ -158,11 +160,13 @@ fn run<T: Lane<K, F>, R: Rule, const K: usize, const F: usize>(
 ) {
     let kernel = Constraints::<T, R, K, F> { batches, sweep, kind: PhantomData };
     #[cfg(target_arch = "x86_64")]
-    if path == Path::Fastest
-        && let Some(simd) = pulp::x86::V3::try_new()
-    {
-        return pulp::Simd::vectorize(simd, Avx2(kernel, simd));
-    }
+    let kernel = match path {
+        Path::Fastest => match crate::linalg::isa::eight(Avx2(kernel)) {
+            Ok(()) => return,
+            Err(Avx2(kernel)) => kernel,
+        },
+        Path::Portable => kernel,
+    };
     let _ = path;
     kernel.one_by_one()
 }
@@ -254,7 +258,7 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> Constraints<'_, T, 
     /// The sweep, one lane at a time, in the same single precision.
     #[inline(always)]
     fn one_by_one(self) {
-        let Sweep { rows, lambda, first, last, compliance, rule } = self.sweep;
+        let Sweep { rows: Indexed { rows, .. }, lambda, first, last, compliance, rule } = self.sweep;
         for (batch, lambda) in self.batches.batches.iter().zip(lambda.iter_mut()) {
             if first {
                 *lambda = [[0.0; LANES]; F];
@@ -262,10 +266,11 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> Constraints<'_, T, 
             for k in 0..batch.count {
                 let origin = rows[batch.ids[0][k] as usize].0;
                 let row = |j: usize| rows[batch.ids[j][k] as usize].0;
-                let one = |v: f64| Lanes32 { simd: pulp::Scalar::new(), v: v as f32 };
+                let single = |v: f32| Lanes32 { simd: pulp::Scalar::new(), v };
+                let one = |v: f64| single(v as f32);
                 let read = Read::<_, K, F> {
-                    x: std::array::from_fn(|j| std::array::from_fn(|a| one(row(j)[a] - origin[a]))),
-                    w: std::array::from_fn(|j| one(row(j)[3])),
+                    x: std::array::from_fn(|j| std::array::from_fn(|a| single(row(j)[a] - origin[a]))),
+                    w: std::array::from_fn(|j| single(row(j)[3])),
                     constants: batch.constants.map(|c| one(f64::from(c[k]))),
                     lambda: std::array::from_fn(|f| one(lambda[f][k])),
                     compliance: std::array::from_fn(|f| one(compliance[f]) * one(f64::from(batch.factors[f][k]))),
@@ -274,28 +279,35 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> Constraints<'_, T, 
                 if !last {
                     for (lambda, delta) in lambda.iter_mut().zip(deltas) {
                         lambda[k] += f64::from(delta.v);
+                        // Lanes past the count, repeating the last, keep its multipliers.
+                        if k + 1 == batch.count {
+                            let kept = lambda[k];
+                            lambda[k..].fill(kept);
+                        }
                     }
                 }
                 for (j, step) in steps.iter().enumerate() {
                     let row = &mut rows[batch.ids[j][k] as usize].0;
-                    (0..3).for_each(|a| row[a] += f64::from(step[a].v));
+                    (0..3).for_each(|a| row[a] += step[a].v);
                 }
             }
         }
     }
 }
-/// The eight-lane sweep, as a kernel for [`pulp`]'s dispatch (which compiles it for AVX2 + FMA).
+/// The eight-lane sweep, as a kernel for [`crate::linalg::isa::eight`].
 #[cfg(target_arch = "x86_64")]
-struct Avx2<'a, T, R, const K: usize, const F: usize>(Constraints<'a, T, R, K, F>, pulp::x86::V3);
+struct Avx2<'a, T, R, const K: usize, const F: usize>(Constraints<'a, T, R, K, F>);
 
 #[cfg(target_arch = "x86_64")]
-impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> pulp::WithSimd for Avx2<'_, T, R, K, F> {
+impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> crate::linalg::isa::Eight for Avx2<'_, T, R, K, F> {
     type Output = ();
 
     #[inline(always)]
-    fn with_simd<S: Simd>(self, _: S) {
-        let Avx2(kernel, simd) = self;
-        let Sweep { rows, lambda, first, last, compliance, rule } = kernel.sweep;
+    fn run(self, simd: pulp::x86::V3) {
+        let Avx2(kernel) = self;
+        let Sweep { rows: Indexed { rows, mask }, lambda, first, last, compliance, rule } = kernel.sweep;
+        // Sliced to the mask, so that indices masked by it need no bounds checks.
+        let rows = &mut rows[..=mask];
         let eight = super::eight::Eight::new(simd, compliance, (first, last));
         let batches = &kernel.batches.batches;
         // Two batches of a colour at a time, read before either is projected: their arithmetic is
@@ -303,16 +315,19 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> pulp::WithSimd for 
         for colour in kernel.batches.colours.windows(2) {
             let mut b = colour[0];
             while b + 1 < colour[1] {
-                let (first, second) =
-                    (eight.read(rows, &batches[b], &lambda[b]), eight.read(rows, &batches[b + 1], &lambda[b + 1]));
+                let read = Indexed { rows: &*rows, mask };
+                let ((first, first_raw), (second, second_raw)) =
+                    (eight.read(read, &batches[b], &lambda[b]), eight.read(read, &batches[b + 1], &lambda[b + 1]));
                 let (first, second) = (T::project(&first, rule), T::project(&second, rule));
-                eight.write(rows, &batches[b], &mut lambda[b], first);
-                eight.write(rows, &batches[b + 1], &mut lambda[b + 1], second);
+                eight.write(Indexed { rows: &mut *rows, mask }, &batches[b], &mut lambda[b], first_raw, first);
+                let write = Indexed { rows: &mut *rows, mask };
+                eight.write(write, &batches[b + 1], &mut lambda[b + 1], second_raw, second);
                 b += 2;
             }
             if b < colour[1] {
-                let projected = T::project(&eight.read(rows, &batches[b], &lambda[b]), rule);
-                eight.write(rows, &batches[b], &mut lambda[b], projected);
+                let (read, raw) = eight.read(Indexed { rows: &*rows, mask }, &batches[b], &lambda[b]);
+                let projected = T::project(&read, rule);
+                eight.write(Indexed { rows: &mut *rows, mask }, &batches[b], &mut lambda[b], raw, projected);
             }
         }
     }
@@ -333,7 +348,7 @@ pub fn volume(triangles: &[[usize; 3]], p: &mut [DVec3], w: &[f64], target: f64,
 mod tests {
     use super::*;
     use crate::energy::constraints::RestAngle;
-    use crate::solver::pbd::batch::{self, Packable};
+    use crate::solver::pbd::batch::Packable;
     use crate::solver::pbd::model::Bend;
 
     /// `n` disjoint groups of four particles (a hinge each), bent and stretched off their rest state,
@@ -371,7 +386,8 @@ mod tests {
     /// The single-precision sweep over `items` (37 lanes in two colours, 100 m from the origin)
     /// moves each particle as `expect` does in double precision (given the lane's item, positions,
     /// inverse masses and multipliers: each `Δλ` and each particle's move), to a relative 1e-5 of the
-    /// lane's largest move; the eight-lane path (where the CPU has AVX2) and the one-lane path give
+    /// lane's largest move and the rounding of the particle's row (a unit in the last place of its
+    /// distance from the first particle, whatever the distance from the origin); the eight-lane path (where the CPU has AVX2) and the one-lane path give
     /// the same bits; a substep's first sweep, whatever its multipliers hold, gives the bits of a
     /// sweep from cleared multipliers; and its last leaves them as they are.
     fn agrees<T: Lane<K, F> + Packable<K, F>, const K: usize, const F: usize>(
@@ -392,12 +408,12 @@ mod tests {
         // Each lane's batch and place.
         let lane = |k: usize| if k < 20 { (k / LANES, k % LANES) } else { (3 + (k - 20) / LANES, (k - 20) % LANES) };
         let sweep = |path: Path, lambda: &mut [[[f64; LANES]; F]], first: bool, last: bool| {
-            let mut rows = Vec::new();
-            batch::fill_rows(&start, &w, &mut rows);
+            let mut rows = Rows::default();
+            rows.fill(&start, &w);
             let compliance = [COMPLIANCE; F];
             run::<T, _, K, F>(
                 &batches,
-                Sweep { rows: &mut rows, lambda, first, last, compliance, rule: [Compliance; F] },
+                Sweep { rows: rows.indexed_mut(), lambda, first, last, compliance, rule: [Compliance; F] },
                 path,
             );
             rows
@@ -405,10 +421,16 @@ mod tests {
         for path in [Path::Fastest, Path::Portable] {
             let (mut cleared, mut held) = (batches.multipliers(), vec![[[7.0; LANES]; F]; 6]);
             let (from_zero, first) = (sweep(path, &mut cleared, false, false), sweep(path, &mut held, true, false));
-            assert!(from_zero == first && cleared == held, "{case} {path:?}: the first sweep reads its multipliers");
+            assert!(
+                from_zero.particles() == first.particles() && cleared == held,
+                "{case} {path:?}: the first sweep reads its multipliers"
+            );
             let (mut some, mut kept) = (vec![[[7.0; LANES]; F]; 6], vec![[[7.0; LANES]; F]; 6]);
             let (other, last) = (sweep(path, &mut some, false, false), sweep(path, &mut kept, false, true));
-            assert!(other == last, "{case} {path:?}: the last sweep moves the particles as any other");
+            assert!(
+                other.particles() == last.particles(),
+                "{case} {path:?}: the last sweep moves the particles as any other"
+            );
             assert!(kept == vec![[[7.0; LANES]; F]; 6] && some != kept, "{case} {path:?}: and leaves the multipliers");
         }
         let mut results = Vec::new();
@@ -416,12 +438,14 @@ mod tests {
             let mut lambda = batches.multipliers();
             for k in 0..n {
                 let (b, l) = lane(k);
-                (0..F).for_each(|f| lambda[b][f][l] = 1e-6 * (k + 40 * f) as f64);
+                // The lanes past a batch's count keep its last lane's multipliers.
+                let lanes = if l + 1 == batches.batches[b].count { l..LANES } else { l..l + 1 };
+                (0..F).for_each(|f| lambda[b][f][lanes.clone()].fill(1e-6 * (k + 40 * f) as f64));
             }
             let before = lambda.clone();
             let rows = sweep(path, &mut lambda, false, false);
             let mut p = start.clone();
-            batch::read_rows(&rows, &mut p);
+            rows.read(&mut p);
             for (k, item) in items.iter().enumerate() {
                 let ids = item.particles();
                 let (b, l) = lane(k);
@@ -431,16 +455,18 @@ mod tests {
                 assert!(scale > 1e-5, "{case} {k}: the test should move particles ({scale})");
                 for (&i, m) in ids.iter().zip(&moves) {
                     let error = (p[i] - start[i] - *m).length();
-                    assert!(error <= 1e-5 * scale, "{case} {k} {path:?}: particle {i} off by {error:e} of {scale:e}");
+                    let rounding = f64::from(f32::EPSILON) * (start[i] + *m - start[0]).abs().max_element();
+                    let within = 1e-5 * scale + rounding;
+                    assert!(error <= within, "{case} {k} {path:?}: particle {i} off by {error:e} of {scale:e}");
                 }
                 for (f, delta) in deltas.iter().enumerate() {
                     let got = lambda[b][f][l] - before[b][f][l];
                     assert!((got - delta).abs() <= 1e-5 * delta.abs(), "{case} {k}: Δλ {f}: {got} against {delta}");
                 }
             }
-            // The lanes past a batch's count keep their multipliers.
-            for (b, l) in [(2, 4), (2, 7), (5, 1), (5, 7)] {
-                assert_eq!(lambda[b][0][l], 0.0, "{case} {path:?}: unused lane {b}/{l}");
+            // The lanes past a batch's count still keep its last lane's multipliers.
+            for (b, l, last) in [(2, 4, 3), (2, 7, 3), (5, 1, 0), (5, 7, 0)] {
+                assert_eq!(lambda[b][0][l], lambda[b][0][last], "{case} {path:?}: lane {b}/{l} past the count");
             }
             results.push((p, lambda));
         }

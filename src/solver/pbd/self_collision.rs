@@ -42,7 +42,11 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
+#[cfg(any(doc, test))]
+use super::batch::Rows;
+use super::batch::{Indexed, Row};
 use super::self_contact::{self, EdgePair, Pair, over};
+use super::turn::Watch;
 use crate::collision::bvh::{Leaf, Tilt, TriangleTree};
 use crate::collision::closest::{self, closest_on_triangle, segment_gap};
 use crate::energy::constraints::point_triangle;
@@ -69,7 +73,7 @@ pub struct SelfCollision {
     /// Whether the last search skipped the whole cloth as one flat patch.
     whole: bool,
     /// The triangles of the patches the last search skipped as flat, with their unit normals then.
-    watched: Vec<([u32; 3], DVec3)>,
+    watched: Watch,
     /// The vertex–triangle pairs within reach at the last search, sorted by (vertex, triangle).
     pub pairs: Vec<Pair>,
     /// The edge–edge pairs likewise, sorted.
@@ -106,7 +110,7 @@ impl SelfCollision {
             least_margin: 0.2 * mean_edge,
             reference: Vec::new(),
             whole: false,
-            watched: Vec::new(),
+            watched: Watch::default(),
             pairs: Vec::new(),
             edge_pairs: Vec::new(),
             active: Vec::new(),
@@ -115,11 +119,19 @@ impl SelfCollision {
         }
     }
 
-    /// This substep's pairs and sides, for the substep from `x` (start) to `p` (predicted).
-    pub fn find(&mut self, x: &[DVec3], p: &[DVec3], triangles: &[[usize; 3]], thickness: f64) {
+    /// This substep's pairs and sides, for the substep from `x` (start) to `p` (predicted), which
+    /// `rows` hold as the sweeps read them ([`Rows`]).
+    pub fn find(
+        &mut self,
+        [x, p]: [&[DVec3]; 2],
+        rows: [Indexed<&[Row]>; 2],
+        triangles: &[[usize; 3]],
+        thickness: f64,
+    ) {
         // When the last search skipped the whole cloth as one flat patch, nothing can have come
         // within reach while it stays flat, however far its vertices moved.
-        let stale = self.reference.len() != x.len() || self.turned([x, p]) || (!self.whole && self.drifted(x, p));
+        let stale =
+            self.reference.len() != x.len() || self.watched.turned(rows, TILT) || (!self.whole && self.drifted(x, p));
         if stale {
             let t = mean_displacement(p, x);
             self.margins.clear();
@@ -241,9 +253,8 @@ impl SelfCollision {
             }
         });
         self.whole = self.tree.all_flat();
-        self.watched.clear();
-        self.watched
-            .extend(self.tree.flat_patches().map(|(t, normal)| (triangles[t as usize].map(|i| i as u32), normal)));
+        self.watched =
+            Watch::new(self.tree.flat_patches().map(|(t, normal)| (triangles[t as usize].map(|i| i as u32), normal)));
         near_vertices.sort_unstable();
         near_edges.sort_unstable();
         self.pairs = carry(
@@ -284,19 +295,6 @@ impl SelfCollision {
             let drift2 =
                 (x[i] - self.reference[i] - tx).length_squared().max((p[i] - self.reference[i] - tp).length_squared());
             4.0 * drift2 >= self.margins[i] * self.margins[i]
-        })
-    }
-
-    /// Whether a triangle of the flat patches has turned at either of `ys` by more than the tilt since
-    /// the search (or has no normal there).
-    fn turned(&self, ys: [&[DVec3]; 2]) -> bool {
-        let cos2 = TILT.cos().powi(2);
-        self.watched.iter().any(|&(t, before)| {
-            ys.iter().any(|y| {
-                let n = area_normal(t.map(|i| y[i as usize]));
-                let along = n.dot(before);
-                !(along > 0.0 && along * along > cos2 * n.length_squared())
-            })
         })
     }
 
@@ -352,6 +350,14 @@ mod tests {
         }
     }
 
+    /// `sc`'s pairs for the substep from `x` to `p`.
+    fn find(sc: &mut SelfCollision, x: &[DVec3], p: &[DVec3], triangles: &[[usize; 3]], thickness: f64) {
+        let mut rows = [Rows::default(), Rows::default()];
+        rows[0].fill(x, &vec![1.0; x.len()]);
+        rows[1].fill(p, &vec![1.0; p.len()]);
+        sc.find([x, p], [rows[0].indexed(), rows[1].indexed()], triangles, thickness);
+    }
+
     /// A sheet that is one flat patch is searched once while it stays flat, however far it moves,
     /// and again as soon as a fold turns its triangles; a sheet that is not one flat patch is searched
     /// again when its vertices drift apart, as before.
@@ -361,14 +367,14 @@ mod tests {
         let Sheet { rest, triangles, edges, mean } = Sheet::new([1.0, 1.0], [50, 50]);
         let thickness = 0.1 * mean;
         let mut sc = SelfCollision::new(&rest, &triangles, edges.clone(), mean);
-        sc.find(&rest, &rest, &triangles, thickness);
-        assert_eq!((sc.searches, sc.watched.len()), (1, triangles.len()), "one flat patch");
+        find(&mut sc, &rest, &rest, &triangles, thickness);
+        assert_eq!((sc.searches, sc.watched.triangles()), (1, triangles.len()), "one flat patch");
         // Stretched by 5% along x, sheared, and carried 3 m: still flat, no search.
         let moved = |f: f64| {
             rest.iter().map(|p| DVec3::new(p.x * (1.0 + 0.05 * f) + 0.1 * f * p.z + 3.0 * f, 0.0, p.z)).collect()
         };
         let (a, b): (Vec<DVec3>, Vec<DVec3>) = (moved(0.5), moved(1.0));
-        sc.find(&a, &b, &triangles, thickness);
+        find(&mut sc, &a, &b, &triangles, thickness);
         assert_eq!(sc.searches, 1, "a flat sheet moved in its plane needs no search");
         // Folded along x = 3 m by 120°: the triangles on one side turn past the tilt.
         let (c, s) = (120f64.to_radians().cos(), 120f64.to_radians().sin());
@@ -376,16 +382,16 @@ mod tests {
             .iter()
             .map(|p| if p.x > 3.0 { DVec3::new(3.0 + (p.x - 3.0) * c, (p.x - 3.0) * s, p.z) } else { *p })
             .collect();
-        sc.find(&b, &folded, &triangles, thickness);
+        find(&mut sc, &b, &folded, &triangles, thickness);
         assert_eq!(sc.searches, 2, "a fold makes the search again (from the substep's start)");
-        sc.find(&folded, &folded, &triangles, thickness);
+        find(&mut sc, &folded, &folded, &triangles, thickness);
         assert_eq!(sc.searches, 3, "and again once the fold is the start");
-        assert!(sc.watched.len() < triangles.len(), "the folded sheet is not one flat patch");
-        sc.find(&folded, &folded, &triangles, thickness);
+        assert!(sc.watched.triangles() < triangles.len(), "the folded sheet is not one flat patch");
+        find(&mut sc, &folded, &folded, &triangles, thickness);
         assert_eq!(sc.searches, 3, "nothing moved");
         // Not one flat patch: a shear in its plane beyond the margins makes the search again.
         let drifted: Vec<DVec3> = folded.iter().map(|p| *p + DVec3::new(0.0, 0.0, 0.2 * (p.x - 3.0))).collect();
-        sc.find(&folded, &drifted, &triangles, thickness);
+        find(&mut sc, &folded, &drifted, &triangles, thickness);
         assert_eq!(sc.searches, 4, "drift counts where the sheet is not one flat patch");
     }
 
@@ -401,10 +407,10 @@ mod tests {
         };
         let (open, closed) = (fold(90.0), fold(98.0));
         let mut sc = SelfCollision::new(&rest, &triangles, edges, mean);
-        sc.find(&open, &open, &triangles, 0.1 * mean);
-        assert_eq!(sc.watched.len(), triangles.len(), "every triangle in a flat patch");
+        find(&mut sc, &open, &open, &triangles, 0.1 * mean);
+        assert_eq!(sc.watched.triangles(), triangles.len(), "every triangle in a flat patch");
         assert!(!sc.whole, "but not one patch");
-        sc.find(&open, &closed, &triangles, 0.1 * mean);
+        find(&mut sc, &open, &closed, &triangles, 0.1 * mean);
         assert_eq!(sc.searches, 2, "the V closing needs a search");
     }
 }

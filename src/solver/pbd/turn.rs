@@ -1,0 +1,267 @@
+//! Whether any of a set of triangles has turned by more than an angle since their normals were taken
+//! (self-collision's test that its flat patches are still flat, [`super::self_collision`]).
+//!
+//! The test runs every substep over every triangle of a flat sheet, at the substep's start and its
+//! predicted end, so it takes eight triangles at a time where the CPU has AVX2, in single precision,
+//! at both positions at once, from the rows the sweeps read ([`super::batch::Rows`]: positions
+//! rounded once, relative to the first particle), each batch's corners loaded as the sweeps load
+//! theirs ([`super::eight`]). Rounding cannot pass a triangle that
+//! has turned too far: the test is for an angle a hundredth of a radian (0.57°) under the limit, and a
+//! triangle passes only if the rounding of its normal (bounded from its corners' distance from the
+//! rows' origin and its edges) is under half of that. A CPU without AVX2 runs the same arithmetic one
+//! triangle at a time.
+
+use glam::DVec3;
+
+use super::batch::{Indexed, LANES, Row};
+use crate::linalg::real::{self, Lanes32, Real, V3};
+
+/// How much under the limit the single-precision test holds its triangles, radians.
+const SLACK: f64 = 1e-2;
+
+/// Up to [`LANES`] triangles: their corners and unit normals when they were taken.
+#[derive(Debug, Clone, PartialEq)]
+struct Batch {
+    /// Each lane's corners, corner by corner; lanes past the count repeat the last.
+    corners: [[u32; LANES]; 3],
+    /// Each lane's unit normal, coordinate by coordinate.
+    normals: [[f32; LANES]; 3],
+}
+
+/// Triangles and their normals, watched for turning.
+#[derive(Debug, Clone, Default)]
+pub struct Watch {
+    batches: Vec<Batch>,
+    count: usize,
+}
+
+impl Watch {
+    /// Watch these triangles, with their unit normals now.
+    pub fn new(triangles: impl IntoIterator<Item = ([u32; 3], DVec3)>) -> Self {
+        let all: Vec<([u32; 3], DVec3)> = triangles.into_iter().collect();
+        let batches = all
+            .chunks(LANES)
+            .map(|group| {
+                let lane = |k: usize| group[k.min(group.len() - 1)];
+                Batch {
+                    corners: std::array::from_fn(|c| std::array::from_fn(|k| lane(k).0[c])),
+                    normals: std::array::from_fn(|a| std::array::from_fn(|k| lane(k).1[a] as f32)),
+                }
+            })
+            .collect();
+        Self { batches, count: all.len() }
+    }
+
+    /// How many triangles are watched.
+    #[cfg(test)]
+    pub fn triangles(&self) -> usize {
+        self.count
+    }
+
+    /// Whether a watched triangle has turned at the positions of either of `rows` by `angle` or more
+    /// since its normal was taken (or has no normal there); maybe also when it turned by a little
+    /// less, never when it turned by less than `angle` − 10 mrad.
+    pub fn turned(&self, rows: [Indexed<&[Row]>; 2], angle: f64) -> bool {
+        self.check(rows, angle, true)
+    }
+
+    /// [`Self::turned`], eight triangles at a time if `fastest` and the CPU has AVX2, else one at a time.
+    fn check(&self, rows: [Indexed<&[Row]>; 2], angle: f64, fastest: bool) -> bool {
+        if self.count == 0 {
+            return false;
+        }
+        if rows[0].mask != rows[1].mask {
+            return true;
+        }
+        let test = Test::new(angle);
+        #[cfg(target_arch = "x86_64")]
+        if fastest && let Ok(turned) = crate::linalg::isa::eight(Eight { test, batches: &self.batches, rows }) {
+            return turned;
+        }
+        let one = |v: f32| Lanes32 { simd: pulp::Scalar::new(), v };
+        self.batches.iter().any(|b| {
+            (0..LANES).any(|k| {
+                let normal = [one(b.normals[0][k]), one(b.normals[1][k]), one(b.normals[2][k])];
+                rows.iter().any(|rows| {
+                    let corner = |c: usize| {
+                        let r = rows.rows[b.corners[c][k] as usize].0;
+                        [one(r[0]), one(r[1]), one(r[2])]
+                    };
+                    let margin = test.margin([corner(0), corner(1), corner(2)], normal).v;
+                    margin <= 0.0 || margin.is_nan()
+                })
+            })
+        })
+    }
+}
+
+/// The test's constants: the cosine of the tested angle (the limit less the slack) and the sine of
+/// half the slack, squared; and the bounds on rounding, with room to spare.
+#[derive(Debug, Clone, Copy)]
+struct Test {
+    cos2: f64,
+    sin2: f64,
+    /// A row's rounding per coordinate, in units of its distance from the origin.
+    position: f64,
+    /// A product's relative rounding.
+    product: f64,
+}
+
+impl Test {
+    fn new(angle: f64) -> Self {
+        let unit = f64::from(f32::EPSILON);
+        Self {
+            cos2: (angle - SLACK).cos().powi(2),
+            sin2: (0.5 * SLACK).sin().powi(2),
+            position: unit,
+            product: 4.0 * unit,
+        }
+    }
+
+    /// Positive where a triangle with corners `c` has turned from `normal` by less than the tested
+    /// angle, with its normal's rounding under half the slack; else zero or less (or NaN).
+    #[inline(always)]
+    fn margin<N: Real>(&self, c: [V3<N>; 3], normal: V3<N>) -> N {
+        let zero = c[0][0].constant(0.0);
+        let (e1, e2) = (real::sub(c[1], c[0]), real::sub(c[2], c[0]));
+        let n = real::cross(e1, e2);
+        let (along, length2) = (real::dot(n, normal), real::dot(n, n));
+        // The normal's rounding. Every corner is within `r = |c₀|₁ + |e₁|₁ + |e₂|₁` of the origin in
+        // each coordinate, so was rounded by at most `r ε/2` there, and each edge is off by at most
+        // `r ε` per coordinate, `√3 r ε < 2 r ε = d` along its length; that moves the normal by at
+        // most `d (|e₁| + |e₂| + d)`, and the cross product's own rounding adds under `4ε |e₁|₁|e₂|₁`.
+        let (l1, l2) = (norm1(e1), norm1(e2));
+        let d = zero.constant(2.0 * self.position) * (norm1(c[0]) + l1 + l2);
+        let error = d * (l1 + l2 + d) + zero.constant(self.product) * l1 * l2;
+        let within = along * along - zero.constant(self.cos2) * length2;
+        let exact = zero.constant(self.sin2) * length2 - error * error;
+        let m = N::select(zero.less(along), within, zero);
+        N::select(zero.less(m), exact, zero)
+    }
+}
+
+/// `|v|₁`.
+#[inline(always)]
+fn norm1<N: Real>(v: V3<N>) -> N {
+    v[0].abs() + v[1].abs() + v[2].abs()
+}
+
+/// The test eight triangles at a time, as a kernel for [`crate::linalg::isa::eight`].
+#[cfg(target_arch = "x86_64")]
+struct Eight<'a> {
+    test: Test,
+    batches: &'a [Batch],
+    rows: [Indexed<&'a [Row]>; 2],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl crate::linalg::isa::Eight for Eight<'_> {
+    type Output = bool;
+
+    #[inline(always)]
+    fn run(self, simd: pulp::x86::V3) -> bool {
+        use pulp::cast;
+        // Loops, not closures: a closure the compiler declines to inline would run without AVX2.
+        let zero = Lanes32 { simd, v: cast(simd.avx._mm256_setzero_ps()) };
+        // Sliced to the mask, so that indices masked by it need no bounds checks.
+        let [start, end] = self.rows;
+        let (start, end) =
+            (Indexed { rows: &start.rows[..=start.mask], ..start }, Indexed { rows: &end.rows[..=end.mask], ..end });
+        for b in self.batches {
+            let (mut c, mut d, mut normal) = ([[zero; 3]; 3], [[zero; 3]; 3], [zero; 3]);
+            for ((c, d), ids) in c.iter_mut().zip(&mut d).zip(&b.corners) {
+                let [x, y, z, _] = super::eight::gather(simd, start.rows, start.mask, ids);
+                *c = [Lanes32 { simd, v: cast(x) }, Lanes32 { simd, v: cast(y) }, Lanes32 { simd, v: cast(z) }];
+                let [x, y, z, _] = super::eight::gather(simd, end.rows, end.mask, ids);
+                *d = [Lanes32 { simd, v: cast(x) }, Lanes32 { simd, v: cast(y) }, Lanes32 { simd, v: cast(z) }];
+            }
+            for (n, values) in normal.iter_mut().zip(&b.normals) {
+                n.v = cast(*values);
+            }
+            let (m, n) = (self.test.margin(c, normal), self.test.margin(d, normal));
+            let pass = simd.avx._mm256_and_ps(cast(m.constant(0.0).less(m)), cast(n.constant(0.0).less(n)));
+            if simd.avx._mm256_movemask_ps(pass) != 0xff {
+                return true;
+            }
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::solver::pbd::batch::Rows;
+
+    /// The rows of positions `y`.
+    fn rows(y: &[DVec3]) -> Rows {
+        let mut rows = Rows::default();
+        rows.fill(y, &vec![1.0; y.len()]);
+        rows
+    }
+
+    /// A triangle of a flat sheet far from the origin, turned about its first edge by `degrees`.
+    fn turned_triangle(degrees: f64, offset: DVec3) -> (Vec<DVec3>, [u32; 3]) {
+        let (c, s) = (degrees.to_radians().cos(), degrees.to_radians().sin());
+        (vec![offset, offset + DVec3::new(0.01, 0.0, 0.0), offset + DVec3::new(0.004, 0.009 * c, 0.009 * s)], [0, 1, 2])
+    }
+
+    /// The batch test agrees with the angle: a triangle turned under the limit less the slack passes
+    /// and one turned to the limit or beyond does not, at the start or the end, in any lane of a batch
+    /// and at either path; one with no normal any more has turned.
+    #[test]
+    fn a_triangle_has_turned_exactly_when_its_normal_has() {
+        let limit = 10f64.to_radians();
+        for offset in [DVec3::ZERO, DVec3::new(3.0, -2.0, 1.5)] {
+            for (degrees, expect) in
+                [(0.0, false), (9.4, false), (10.0, true), (10.5, true), (90.0, true), (200.0, true)]
+            {
+                // 13 triangles (a full batch and a part-filled one), the one tested in each place.
+                for place in [0, 7, 12] {
+                    let (mut flat, mut y, mut triangles) = (Vec::new(), Vec::new(), Vec::new());
+                    for k in 0..13u32 {
+                        let (p, t) = turned_triangle(if k == place { degrees } else { 0.0 }, offset);
+                        triangles.push((t.map(|i| i + 3 * k), DVec3::Z));
+                        y.extend(p);
+                        flat.extend(turned_triangle(0.0, offset).0);
+                    }
+                    let watch = Watch::new(triangles);
+                    assert_eq!(watch.triangles(), 13);
+                    let (flat, y) = (rows(&flat), rows(&y));
+                    for fastest in [true, false] {
+                        for (when, both) in [("end", [&flat, &y]), ("start", [&y, &flat])] {
+                            let got = watch.check(both.map(Rows::indexed), limit, fastest);
+                            assert_eq!(got, expect, "{degrees}° at {place} at the {when}, {offset}, fastest {fastest}");
+                        }
+                    }
+                }
+            }
+        }
+        let (mut y, t) = turned_triangle(0.0, DVec3::ZERO);
+        y[2] = y[0] + 0.5 * (y[1] - y[0]);
+        for fastest in [true, false] {
+            let y = rows(&y);
+            assert!(
+                Watch::new([(t, DVec3::Z)]).check([y.indexed(), y.indexed()], limit, fastest),
+                "a degenerate triangle has turned"
+            );
+        }
+    }
+
+    /// A cloth whose triangles are small for its distance from the first vertex (rounding over half
+    /// the slack) counts as turned rather than risk passing a turned one.
+    #[test]
+    fn rounding_too_coarse_for_the_triangles_counts_as_turned() {
+        let (mut y, t) = turned_triangle(0.0, DVec3::new(1.0, 0.0, 0.0));
+        let limit = 10f64.to_radians();
+        for fastest in [true, false] {
+            let y = rows(&y);
+            assert!(!Watch::new([(t, DVec3::Z)]).check([y.indexed(), y.indexed()], limit, fastest));
+        }
+        y.insert(0, DVec3::new(-1e5, 0.0, 0.0));
+        for fastest in [true, false] {
+            let y = rows(&y);
+            assert!(Watch::new([(t.map(|i| i + 1), DVec3::Z)]).check([y.indexed(), y.indexed()], limit, fastest));
+        }
+    }
+}
