@@ -10,7 +10,9 @@
 //! adds to each particle what the sweeps moved its row, so a particle the sweeps did not move (an
 //! anchored one, say) keeps its position to the bit.
 
-use glam::{DVec3, Vec3};
+use glam::DVec3;
+
+use crate::linalg::isa;
 
 /// Lanes a batch holds: those of an AVX2 single-precision register.
 pub const LANES: usize = 8;
@@ -34,22 +36,45 @@ pub struct Rows {
 impl Rows {
     /// The rows of particles `p` with inverse masses `w`, relative to the first particle.
     pub fn fill(&mut self, p: &[DVec3], w: &[f64]) {
-        self.origin = p.first().copied().unwrap_or_default();
-        self.count = p.len();
-        self.rows.clear();
-        self.rows.extend(p.iter().zip(w).map(|(p, &w)| {
-            let r = (*p - self.origin).as_vec3();
-            Row([r.x, r.y, r.z, w as f32])
-        }));
-        self.rows.resize(p.len().next_power_of_two(), Row::default());
+        struct Fill<'a>(&'a mut Rows, &'a [DVec3], &'a [f64]);
+        impl isa::Kernel for Fill<'_> {
+            type Output = ();
+            #[inline(always)]
+            fn run(self) {
+                let Fill(rows, p, w) = self;
+                rows.origin = p.first().copied().unwrap_or_default();
+                rows.count = p.len();
+                // Written in place: the empty rows past the particles stay as they are.
+                rows.rows.resize(p.len().next_power_of_two(), Row::default());
+                let o = rows.origin;
+                for (row, (p, &w)) in rows.rows.iter_mut().zip(p.iter().zip(w)) {
+                    let r = [p.x - o.x, p.y - o.y, p.z - o.z, w];
+                    *row = Row([r[0] as f32, r[1] as f32, r[2] as f32, r[3] as f32]);
+                }
+            }
+        }
+        isa::avx2(Fill(self, p, w));
     }
 
     /// Add to each of `p` (the positions the rows were filled from) what the sweeps moved its row.
     pub fn read(&self, p: &mut [DVec3]) {
-        for (p, r) in p.iter_mut().zip(self.particles()) {
-            let before = (*p - self.origin).as_vec3().as_dvec3();
-            *p += Vec3::new(r.0[0], r.0[1], r.0[2]).as_dvec3() - before;
+        struct Read<'a>(&'a Rows, &'a mut [DVec3]);
+        impl isa::Kernel for Read<'_> {
+            type Output = ();
+            #[inline(always)]
+            fn run(self) {
+                let Read(rows, p) = self;
+                let o = rows.origin;
+                for (p, r) in p.iter_mut().zip(rows.particles()) {
+                    let before = [(p.x - o.x) as f32, (p.y - o.y) as f32, (p.z - o.z) as f32];
+                    // Exact where the move is under the row's distance from the origin (Sterbenz),
+                    // else good to a unit in the last place of the move.
+                    let moved = [r.0[0] - before[0], r.0[1] - before[1], r.0[2] - before[2]];
+                    *p += DVec3::new(f64::from(moved[0]), f64::from(moved[1]), f64::from(moved[2]));
+                }
+            }
         }
+        isa::avx2(Read(self, p));
     }
 
     /// The particles' rows.
