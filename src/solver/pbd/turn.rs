@@ -13,49 +13,47 @@
 
 use glam::DVec3;
 
-use super::batch::{Indexed, LANES, Row};
+use super::batch::{Batch, Batches, CONSTANTS, Indexed, LANES, Packable, Row};
 use crate::linalg::real::{self, Lanes32, Real, V3};
 
 /// How much under the limit the single-precision test holds its triangles, radians.
 const SLACK: f64 = 1e-2;
 
-/// Up to [`LANES`] triangles: their corners and unit normals when they were taken.
-#[derive(Debug, Clone, PartialEq)]
-struct Batch {
-    /// Each lane's corners, corner by corner; lanes past the count repeat the last.
-    corners: [[u32; LANES]; 3],
-    /// Each lane's unit normal, coordinate by coordinate.
-    normals: [[f32; LANES]; 3],
+/// A watched triangle: its corners and its unit normal when it was taken, packed as a lane of the
+/// sweeps' batches are ([`Batches`]: the corners as its particles, the normal as its constants).
+#[derive(Debug, Clone, Copy)]
+struct Watched([u32; 3], DVec3);
+
+impl Packable<3, 0> for Watched {
+    fn particles(&self) -> [usize; 3] {
+        self.0.map(|i| i as usize)
+    }
+    fn constants(&self) -> [f64; CONSTANTS] {
+        self.1.to_array()
+    }
+    fn factors(&self) -> [f64; 0] {
+        []
+    }
 }
 
-/// Triangles and their normals, watched for turning.
+/// Triangles and their normals, watched for turning, eight to a batch (lanes past a batch's count
+/// repeat its last).
 #[derive(Debug, Clone, Default)]
 pub struct Watch {
-    batches: Vec<Batch>,
-    count: usize,
+    batches: Vec<Batch<3, 0>>,
 }
 
 impl Watch {
     /// Watch these triangles, with their unit normals now.
     pub fn new(triangles: impl IntoIterator<Item = ([u32; 3], DVec3)>) -> Self {
-        let all: Vec<([u32; 3], DVec3)> = triangles.into_iter().collect();
-        let batches = all
-            .chunks(LANES)
-            .map(|group| {
-                let lane = |k: usize| group[k.min(group.len() - 1)];
-                Batch {
-                    corners: std::array::from_fn(|c| std::array::from_fn(|k| lane(k).0[c])),
-                    normals: std::array::from_fn(|a| std::array::from_fn(|k| lane(k).1[a] as f32)),
-                }
-            })
-            .collect();
-        Self { batches, count: all.len() }
+        let all: Vec<Watched> = triangles.into_iter().map(|(t, n)| Watched(t, n)).collect();
+        Self { batches: Batches::new(&all, &[0, all.len()]).batches }
     }
 
     /// How many triangles are watched.
     #[cfg(test)]
     pub fn triangles(&self) -> usize {
-        self.count
+        self.batches.iter().map(|b| b.count).sum()
     }
 
     /// Whether a watched triangle has turned at the positions of either of `rows` by `angle` or more
@@ -67,7 +65,7 @@ impl Watch {
 
     /// [`Self::turned`], eight triangles at a time if `fastest` and the CPU has AVX2, else one at a time.
     fn check(&self, rows: [Indexed<&[Row]>; 2], angle: f64, fastest: bool) -> bool {
-        if self.count == 0 {
+        if self.batches.is_empty() {
             return false;
         }
         if rows[0].mask != rows[1].mask {
@@ -81,10 +79,10 @@ impl Watch {
         let one = |v: f32| Lanes32 { simd: pulp::Scalar::new(), v };
         self.batches.iter().any(|b| {
             (0..LANES).any(|k| {
-                let normal = [one(b.normals[0][k]), one(b.normals[1][k]), one(b.normals[2][k])];
+                let normal = [one(b.constants[0][k]), one(b.constants[1][k]), one(b.constants[2][k])];
                 rows.iter().any(|rows| {
                     let corner = |c: usize| {
-                        let r = rows.rows[b.corners[c][k] as usize].0;
+                        let r = rows.rows[b.ids[c][k] as usize].0;
                         [one(r[0]), one(r[1]), one(r[2])]
                     };
                     let margin = test.margin([corner(0), corner(1), corner(2)], normal).v;
@@ -150,7 +148,7 @@ fn norm1<N: Real>(v: V3<N>) -> N {
 #[cfg(target_arch = "x86_64")]
 struct Eight<'a> {
     test: Test,
-    batches: &'a [Batch],
+    batches: &'a [Batch<3, 0>],
     rows: [Indexed<&'a [Row]>; 2],
 }
 
@@ -169,13 +167,13 @@ impl crate::linalg::isa::Eight for Eight<'_> {
             (Indexed { rows: &start.rows[..=start.mask], ..start }, Indexed { rows: &end.rows[..=end.mask], ..end });
         for b in self.batches {
             let (mut c, mut d, mut normal) = ([[zero; 3]; 3], [[zero; 3]; 3], [zero; 3]);
-            for ((c, d), ids) in c.iter_mut().zip(&mut d).zip(&b.corners) {
+            for ((c, d), ids) in c.iter_mut().zip(&mut d).zip(&b.ids) {
                 let [x, y, z, _] = super::eight::gather(simd, start.rows, start.mask, ids);
                 *c = [Lanes32 { simd, v: cast(x) }, Lanes32 { simd, v: cast(y) }, Lanes32 { simd, v: cast(z) }];
                 let [x, y, z, _] = super::eight::gather(simd, end.rows, end.mask, ids);
                 *d = [Lanes32 { simd, v: cast(x) }, Lanes32 { simd, v: cast(y) }, Lanes32 { simd, v: cast(z) }];
             }
-            for (n, values) in normal.iter_mut().zip(&b.normals) {
+            for (n, values) in normal.iter_mut().zip(&b.constants) {
                 n.v = cast(*values);
             }
             let (m, n) = (self.test.margin(c, normal), self.test.margin(d, normal));
