@@ -84,12 +84,17 @@ impl Rows {
 
     /// The rows as the kernels index them.
     pub fn indexed(&self) -> Indexed<&[Row]> {
-        Indexed { rows: &self.rows, mask: self.rows.len().saturating_sub(1) }
+        Indexed { rows: &self.rows, mask: self.mask() }
     }
 
     /// The rows as the kernels index and move them.
     pub fn indexed_mut(&mut self) -> Indexed<&mut [Row]> {
-        Indexed { mask: self.rows.len().saturating_sub(1), rows: &mut self.rows }
+        Indexed { mask: self.mask(), rows: &mut self.rows }
+    }
+
+    /// The rows' number (a power of two once filled) less one.
+    fn mask(&self) -> usize {
+        self.rows.len().saturating_sub(1)
     }
 }
 
@@ -130,7 +135,7 @@ pub struct Batch<const K: usize, const F: usize> {
     /// multiply them).
     pub factors: [[f32; LANES]; F],
     /// How many lanes are filled (the rest, repeating the last, move its particles as it does and
-    /// add nothing to the multipliers).
+    /// keep its multipliers).
     pub count: usize,
 }
 

@@ -329,7 +329,8 @@ impl Pbd {
     }
 
     /// Find this substep's contacts: particles near bodies, small bodies near triangles, and the
-    /// self-collision pairs.
+    /// self-collision pairs (whose test of the flat patches reads the predicted positions from the
+    /// sweep's rows, so they are filled first).
     fn detect(&mut self, h: f64) {
         self.touches.clear();
         self.samples.clear();
