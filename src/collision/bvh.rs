@@ -108,6 +108,24 @@ impl Tilt {
     pub fn new(angle: f64) -> Self {
         Self { cos: angle.cos(), sin: angle.sin() }
     }
+    /// The cosine of the widest half-angle, `45° − δ`, a patch's normal cone may have now to stay
+    /// within 45° while each normal turns by up to `δ`.
+    pub fn widest(&self) -> f64 {
+        FLAT * (self.cos + self.sin)
+    }
+}
+
+/// Whether vertices and edges sharing no corner, in a patch of smallest triangle altitude `altitude`
+/// whose normals lie within 45° of one axis, are more than `reach` apart: at least `cos 45°` times
+/// their distance along the surface, which is at least the altitude less 10% for stretch.
+pub fn far_apart(altitude: f64, reach: f64) -> bool {
+    0.9 * FLAT * altitude > reach
+}
+
+/// A triangle's smallest altitude: twice its area over its longest side (zero if degenerate).
+pub fn smallest_altitude([a, b, c]: [DVec3; 3]) -> f64 {
+    let longest = (b - a).length().max((c - b).length()).max((a - c).length());
+    if longest > 0.0 { (b - a).cross(c - a).length() / longest } else { 0.0 }
 }
 
 /// The hierarchy.
@@ -125,15 +143,7 @@ impl TriangleTree {
     /// The hierarchy of these triangles, split by their centroids at `rest`.
     pub fn new(rest: &[DVec3], triangles: &[[usize; 3]]) -> Self {
         let centroids: Vec<DVec3> = triangles.iter().map(|t| (rest[t[0]] + rest[t[1]] + rest[t[2]]) / 3.0).collect();
-        // A triangle's smallest altitude: twice its area over its longest side.
-        let altitudes: Vec<f64> = triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| rest[i]);
-                let longest = (b - a).length().max((c - b).length()).max((a - c).length());
-                if longest > 0.0 { (b - a).cross(c - a).length() / longest } else { 0.0 }
-            })
-            .collect();
+        let altitudes: Vec<f64> = triangles.iter().map(|t| smallest_altitude(t.map(|i| rest[i]))).collect();
         let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
         let mut tree = Self { nodes: Vec::with_capacity(2 * triangles.len()), stack: Vec::new(), skipped: Vec::new() };
         if !order.is_empty() {
@@ -206,7 +216,7 @@ impl TriangleTree {
     /// Whether nothing in node `n`'s patch can be within reach of anything else in it, while each
     /// normal turns by up to `tilt` (the cone's half-angle plus the tilt within 45°).
     fn flat(n: &Node, tilt: Tilt) -> bool {
-        n.cone.cos * tilt.cos - n.cone.sin * tilt.sin >= FLAT && 0.9 * FLAT * n.altitude > n.reach
+        n.cone.cos * tilt.cos - n.cone.sin * tilt.sin >= FLAT && far_apart(n.altitude, n.reach)
     }
 
     /// Call `found` with every pair of distinct triangles whose boxes overlap, each pair once, except
@@ -260,15 +270,11 @@ impl TriangleTree {
         self.skipped == [0]
     }
 
-    /// The triangles of the patches the last query skipped as flat (each once), with their unit
-    /// normals at the last refit.
-    pub fn flat_patches(&self) -> impl Iterator<Item = (u32, DVec3)> + '_ {
+    /// The triangles of the patches the last query skipped as flat, each once.
+    pub fn flat_patches(&self) -> impl Iterator<Item = u32> + '_ {
         self.skipped.iter().flat_map(|&k| {
             let node = &self.nodes[k as usize];
-            self.nodes[k as usize..node.end as usize]
-                .iter()
-                .filter(|n| n.children[0] == LEAF)
-                .map(|n| (n.triangle, n.cone.axis))
+            self.nodes[k as usize..node.end as usize].iter().filter(|n| n.children[0] == LEAF).map(|n| n.triangle)
         })
     }
 }
@@ -385,7 +391,7 @@ mod tests {
         for (tilt, patches, pairs) in [(25.0, 1, false), (35.0, 2, true)] {
             let mut found = 0;
             tree.overlapping_pairs(Tilt::new(f64::to_radians(tilt)), |_, _| found += 1);
-            let mut covered: Vec<u32> = tree.flat_patches().map(|(t, _)| t).collect();
+            let mut covered: Vec<u32> = tree.flat_patches().collect();
             covered.sort_unstable();
             assert_eq!(covered, all, "tilt {tilt}°: every triangle once");
             assert_eq!(tree.skipped.len(), patches, "tilt {tilt}°");

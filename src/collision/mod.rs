@@ -2,11 +2,12 @@
 //! a scripted motion (constant velocity, oscillation, spin). A query gives the signed distance,
 //! outward normal and the body's surface velocity at a point — what contact handling needs. Also the
 //! geometry of self-collision: closest points ([`closest`]) and a refittable hierarchy of a
-//! deforming mesh's triangles ([`bvh`]).
+//! deforming mesh's triangles ([`bvh`]), and which vertices' fans of triangles are flat ([`fans`]).
 
 mod body;
 pub mod bvh;
 pub mod closest;
+pub mod fans;
 mod mesh_distance;
 
 pub use body::{Body, Contact, Motion, Placed, Shape};

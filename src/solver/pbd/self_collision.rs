@@ -27,6 +27,19 @@
 //! substeps).
 //! Several flat patches covering the cloth are not enough: pairs between them can come.
 //!
+//! Along the borders between flat patches, the hierarchy hands over every pair of neighbouring
+//! triangles (their boxes overlap), though two neighbouring patches together need not be flat. A pair
+//! of triangles round a vertex whose fan is flat by the same test ([`Fans`]) is skipped instead, and
+//! the fan's triangles are watched for turning with the patches'. On the wrinkled hanging sheet three
+//! quarters of the pairs handed over share a vertex, and its 300 frames take a tenth less time.
+//!
+//! The hierarchy's and the fans' bound on distances assumes triangles keep their rest altitudes within
+//! 10%. A cloth stretched and sheared further (the hanging sheet at 16 substeps of one sweep, by its
+//! clips, where some triangles lose half their altitude) brings vertices of a flat patch within the
+//! reach of each other's triangles in the patch's plane. That is no crossing: a patch within 45° of one
+//! axis is a graph over the plane across it and cannot go through itself, and the search made when it
+//! stops being flat lists such pairs as they are.
+//!
 //! An edge pair's normal, the direction its second edge keeps from the first, follows the gap between
 //! their closest points; the edges' common normal is used only when they touch (for nearly parallel
 //! edges, as in the layers of a fold, it turns with their slightest twist and may lie across the gap).
@@ -51,6 +64,7 @@ use super::self_contact::{self, EdgePair, Pair, over};
 use super::turn::Watch;
 use crate::collision::bvh::{Leaf, Tilt, TriangleTree};
 use crate::collision::closest::{self, closest_on_triangle, segment_gap};
+use crate::collision::fans::Fans;
 use crate::energy::constraints::point_triangle;
 use crate::mesh::bounds;
 
@@ -61,6 +75,7 @@ const TILT: f64 = 10.0 * std::f64::consts::PI / 180.0;
 #[derive(Debug, Clone)]
 pub struct SelfCollision {
     tree: TriangleTree,
+    fans: Fans,
     /// The mesh's edges, and each triangle's three edges.
     edges: Vec<[usize; 2]>,
     triangle_edges: Vec<[u32; 3]>,
@@ -74,8 +89,15 @@ pub struct SelfCollision {
     reference: Vec<DVec3>,
     /// Whether the last search skipped the whole cloth as one flat patch.
     whole: bool,
-    /// The triangles of the patches the last search skipped as flat, with their unit normals then.
+    /// The triangles of the patches and fans the last search skipped as flat, with their unit normals
+    /// then.
     watched: Watch,
+    /// Scratch for the search: each triangle's unit normal, each vertex's fan flat or not, each
+    /// vertex's fan skipped or not, each triangle watched or not.
+    normals: Vec<DVec3>,
+    flat_fans: Vec<bool>,
+    skipped_fans: Vec<bool>,
+    in_watch: Vec<bool>,
     /// The vertex–triangle pairs within reach at the last search, sorted by (vertex, triangle).
     pub pairs: Vec<Pair>,
     /// The edge–edge pairs likewise, sorted.
@@ -104,6 +126,7 @@ impl SelfCollision {
         }
         Self {
             tree: TriangleTree::new(rest, triangles),
+            fans: Fans::new(rest, triangles),
             edges,
             triangle_edges,
             vertex_owner,
@@ -113,6 +136,10 @@ impl SelfCollision {
             reference: Vec::new(),
             whole: false,
             watched: Watch::default(),
+            normals: Vec::new(),
+            flat_fans: Vec::new(),
+            skipped_fans: Vec::new(),
+            in_watch: Vec::new(),
             pairs: Vec::new(),
             edge_pairs: Vec::new(),
             active: Vec::new(),
@@ -204,19 +231,32 @@ impl SelfCollision {
         let margins = &self.margins;
         let side = |ids: &[usize]| ids.iter().map(|&i| margins[i]).fold(0.0, f64::max);
         let flat_reach = thickness + self.least_margin;
+        let tilt = Tilt::new(TILT);
+        self.normals.clear();
+        self.normals.extend(triangles.iter().map(|t| area_normal(t.map(|i| x[i])).normalize_or_zero()));
+        let normals = &self.normals;
         // Boxes grown by half the reach: two that overlap may hold a pair within reach, and no pair
         // within reach lies in two that do not.
         self.tree.refit(|t| {
             let c = triangles[t].map(|i| x[i]);
             let reach = thickness + side(&triangles[t]);
             let (lo, hi) = bounds(&c);
-            let normal = area_normal(c).normalize_or_zero();
-            Leaf { lo: lo - 0.5 * reach, hi: hi + 0.5 * reach, normal, reach: flat_reach }
+            Leaf { lo: lo - 0.5 * reach, hi: hi + 0.5 * reach, normal: normals[t], reach: flat_reach }
         });
+        self.fans.flat(normals, tilt, flat_reach, &mut self.flat_fans);
+        let (flat_fans, skipped_fans) = (&self.flat_fans, &mut self.skipped_fans);
+        skipped_fans.clear();
+        skipped_fans.resize(x.len(), false);
         let (mut near_vertices, mut near_edges) = (Vec::new(), Vec::new());
         let (edges, triangle_edges) = (&self.edges, &self.triangle_edges);
         let (vertex_owner, edge_owner) = (&self.vertex_owner, &self.edge_owner);
-        self.tree.overlapping_pairs(Tilt::new(TILT), |a, b| {
+        self.tree.overlapping_pairs(tilt, |a, b| {
+            // Two triangles round a vertex whose fan is flat hold no pair within reach.
+            let (ta, tb) = (triangles[a as usize], triangles[b as usize]);
+            if let Some(&v) = ta.iter().find(|&&v| tb.contains(&v) && flat_fans[v]) {
+                skipped_fans[v] = true;
+                return;
+            }
             for (s, t) in [(a, b), (b, a)] {
                 let (ts, tt) = (triangles[s as usize], triangles[t as usize]);
                 let corners = tt.map(|i| x[i]);
@@ -255,8 +295,16 @@ impl SelfCollision {
             }
         });
         self.whole = self.tree.all_flat();
-        self.watched =
-            Watch::new(self.tree.flat_patches().map(|(t, normal)| (triangles[t as usize].map(|i| i as u32), normal)));
+        self.in_watch.clear();
+        self.in_watch.resize(triangles.len(), false);
+        self.tree.flat_patches().for_each(|t| self.in_watch[t as usize] = true);
+        for v in (0..x.len()).filter(|&v| self.skipped_fans[v]) {
+            self.fans.of(v).iter().for_each(|&t| self.in_watch[t as usize] = true);
+        }
+        let (in_watch, normals) = (&self.in_watch, &self.normals);
+        self.watched = Watch::new(
+            (0..triangles.len()).filter(|&t| in_watch[t]).map(|t| (triangles[t].map(|i| i as u32), normals[t])),
+        );
         near_vertices.sort_unstable();
         near_edges.sort_unstable();
         self.pairs = carry(
