@@ -445,6 +445,56 @@ mod tests {
         assert_eq!(sc.searches, 4, "drift counts where the sheet is not one flat patch");
     }
 
+    /// A sheet folded almost flat onto itself along a line of vertices: the fans on the crease are
+    /// not flat, so every vertex–triangle and edge–edge pair within the thickness across it is listed
+    /// (checked against every pair of the mesh). A sheet rolled through 150°: flat patches, and the
+    /// neighbours along their borders skipped round flat fans.
+    #[test]
+    fn pairs_across_a_crease_are_listed_and_flat_fans_skipped() {
+        let Sheet { rest, triangles, edges, mean } = Sheet::new([0.4, 0.2], [20, 10]);
+        let (c, s) = (175f64.to_radians().cos(), 175f64.to_radians().sin());
+        let folded: Vec<DVec3> =
+            rest.iter().map(|p| if p.x > 0.0 { DVec3::new(p.x * c, p.x * s, p.z) } else { *p }).collect();
+        // 0.4 m round a cylinder of radius 0.4 m / (150° in radians).
+        let radius = 0.4 / 150f64.to_radians();
+        let rolled: Vec<DVec3> = rest
+            .iter()
+            .map(|p| DVec3::new(radius * (p.x / radius).sin(), radius * (1.0 - (p.x / radius).cos()), p.z))
+            .collect();
+        let thickness = 0.1 * mean;
+        for (x, crease) in [(folded, true), (rolled, false)] {
+            let mut sc = SelfCollision::new(&rest, &triangles, edges.clone(), mean);
+            find(&mut sc, &x, &x, &triangles, thickness);
+            let mut near = 0;
+            for (v, q) in x.iter().enumerate() {
+                for (t, tri) in triangles.iter().enumerate() {
+                    let corners = tri.map(|i| x[i]);
+                    let on = closest::at(corners, closest_on_triangle(*q, corners).0);
+                    if !tri.contains(&v) && (*q - on).length() <= thickness {
+                        near += 1;
+                        let listed = sc.pairs.iter().any(|p| (p.vertex, p.triangle) == (v as u32, t as u32));
+                        assert!(listed, "vertex {v} within the thickness of triangle {t}");
+                    }
+                }
+            }
+            for (k, e) in edges.iter().enumerate() {
+                for (j, f) in edges.iter().enumerate().skip(k + 1) {
+                    let gap = segment_gap(e.map(|i| x[i]), f.map(|i| x[i])).length();
+                    if !f.contains(&e[0]) && !f.contains(&e[1]) && gap <= thickness {
+                        near += 1;
+                        assert!(sc.edge_pairs.iter().any(|p| p.edges == [k as u32, j as u32]), "edges {k}, {j}");
+                    }
+                }
+            }
+            if crease {
+                assert!(near > 20, "the layers touch by the crease: {near} pairs");
+            } else {
+                assert!(!sc.whole && sc.skipped_fans.iter().any(|&s| s), "neighbours skipped round flat fans");
+                assert_eq!(sc.watched.triangles(), triangles.len(), "every triangle watched");
+            }
+        }
+    }
+
     /// A cloth covered by flat patches but not one (a V of two flat halves) still counts its drift:
     /// closing the V by 8°, under the tilt, brings its arms centimetres nearer and needs a search.
     #[test]
