@@ -108,6 +108,7 @@ impl Tilt {
     pub fn new(angle: f64) -> Self {
         Self { cos: angle.cos(), sin: angle.sin() }
     }
+
     /// The cosine of the widest half-angle, `45° − δ`, a patch's normal cone may have now to stay
     /// within 45° while each normal turns by up to `δ`.
     pub fn widest(&self) -> f64 {

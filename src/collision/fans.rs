@@ -1,13 +1,19 @@
-//! Each vertex's fan (the triangles around it) and whether it is flat now, by the hierarchy's test
-//! for a flat patch ([`super::bvh`]): its triangles' normals within `45° − δ` of one axis for a tilt
-//! `δ`, and its smallest altitude far enough above the reach.
+//! Each vertex's fan (the triangles around it) and whether it is flat now, by the hierarchy's
+//! criterion for a flat patch ([`super::bvh`]): its triangles' normals within `45° − δ` of one axis
+//! for a tilt `δ` (here the axis is their mean, where the hierarchy merges cones), and its smallest
+//! altitude far enough above the reach.
 //!
-//! A fan is a patch as small and compact as a patch gets: a disk round an interior vertex, half of one
-//! round a vertex on the boundary. So two triangles around a vertex whose fan stays flat hold no pair
-//! of vertices and edges within reach of each other, whatever the rest of the mesh does. This covers
-//! the pairs of neighbours along the borders between the hierarchy's flat patches, which the
+//! A fan is a patch as small and compact as a patch gets: a disk round an interior vertex, a wedge
+//! round a vertex on the boundary. Flat, it is a graph over the plane across its axis: its triangles
+//! project with one orientation, and their angles at the vertex grow by at most `1/cos 45° ≈ 1.41` in
+//! projection, so they cannot wrap round the vertex twice if they add up to at most 2.5π at rest, nor
+//! overlap at all for a wedge of at most π (a straight boundary; a slit's tip or a reflex corner is
+//! wider, and its vertex gets no flat fan). So two triangles round a vertex whose fan stays flat hold
+//! no vertices and edges sharing no corner within reach of each other (at least `cos 45°` times the
+//! fan's smallest altitude apart, less 10% for stretch), whatever the rest of the mesh does. This
+//! covers the pairs of neighbours along the borders between the hierarchy's flat patches, which the
 //! hierarchy alone cannot skip (two neighbouring patches together need not be flat). A vertex where
-//! two separate fans meet (a mesh pinched to a point there) has none, and is never flat.
+//! two separate fans meet (a mesh pinched to a point there) has none either.
 
 use glam::DVec3;
 
@@ -42,7 +48,7 @@ impl Fans {
         let altitude = (0..rest.len())
             .map(|v| {
                 let fan = &around[start[v] as usize..start[v + 1] as usize];
-                if !connected(v, fan, triangles) {
+                if !spreads_once(v, fan, triangles, rest) {
                     return 0.0;
                 }
                 fan.iter()
@@ -59,8 +65,8 @@ impl Fans {
     }
 
     /// Into `flat`, for each vertex, whether its fan is flat with the triangles' unit `normals` now
-    /// (zero if degenerate) while each turns by up to `tilt`, with nothing in it within `reach` of
-    /// anything else in it.
+    /// (zero if degenerate) while each turns by up to `tilt`, with no vertices and edges in it that
+    /// share no corner within `reach` of each other.
     pub fn flat(&self, normals: &[DVec3], tilt: Tilt, reach: f64, flat: &mut Vec<bool>) {
         let widest = tilt.widest();
         flat.clear();
@@ -75,26 +81,35 @@ impl Fans {
     }
 }
 
-/// Whether the triangles `fan` around vertex `v` are one fan: each reached from the first across edges
-/// out of `v` that two of them share.
-fn connected(v: usize, fan: &[u32], triangles: &[[usize; 3]]) -> bool {
-    let others = |t: u32| {
-        let tri = triangles[t as usize];
-        tri.into_iter().filter(move |&w| w != v)
-    };
+/// Whether the triangles `fan` around vertex `v` are one fan (each reached from the first across
+/// edges out of `v` that two of them share) whose angles at `v` add up to at most 2.5π, or to at most
+/// π if it has an edge out of `v` that only one of them has (a wedge on the boundary).
+fn spreads_once(v: usize, fan: &[u32], triangles: &[[usize; 3]], rest: &[DVec3]) -> bool {
+    let others = |t: u32| triangles[t as usize].into_iter().filter(move |&w| w != v);
+    let shared = |s: u32, t: u32| others(s).any(|w| others(t).any(|u| u == w));
     let mut reached = vec![false; fan.len()];
-    let mut stack = vec![0usize];
+    let mut stack = Vec::new();
+    if !fan.is_empty() {
+        (reached[0], stack) = (true, vec![0]);
+    }
     while let Some(k) = stack.pop() {
-        if std::mem::replace(&mut reached[k], true) {
-            continue;
-        }
-        for (j, &t) in fan.iter().enumerate() {
-            if !reached[j] && others(t).any(|w| others(fan[k]).any(|u| u == w)) {
+        for j in 0..fan.len() {
+            if !reached[j] && shared(fan[k], fan[j]) {
+                reached[j] = true;
                 stack.push(j);
             }
         }
     }
-    reached.iter().all(|&r| r)
+    let wedge = fan.iter().any(|&s| others(s).any(|w| fan.iter().filter(|&&t| others(t).any(|u| u == w)).count() == 1));
+    let angle: f64 = fan
+        .iter()
+        .map(|&t| {
+            let [a, b] = [0, 1].map(|k| others(t).nth(k).map_or(DVec3::ZERO, |w| rest[w] - rest[v]));
+            a.angle_between(b)
+        })
+        .sum();
+    let widest = if wedge { std::f64::consts::PI } else { 2.5 * std::f64::consts::PI };
+    !fan.is_empty() && reached.iter().all(|&r| r) && angle <= widest * (1.0 + 1e-9)
 }
 
 #[cfg(test)]
@@ -132,6 +147,35 @@ mod tests {
         let fans = Fans::new(&pinched, &bow);
         fans.flat(&normals_of(&pinched, &bow), tilt, 0.01, &mut flat);
         assert_eq!(flat, [false, true, true, true, true], "a pinched vertex has no fan");
+    }
+
+    /// A fan turned as a whole stays flat (its axis is its own); a wedge wider than a half-turn (the
+    /// tip of a slit) and a vertex of no triangle have no flat fan.
+    #[test]
+    fn turned_fans_stay_flat_and_slits_and_lone_vertices_have_none() {
+        let tilt = Tilt::new(10f64.to_radians());
+        let mut flat = Vec::new();
+        let mesh = crate::mesh::generate::grid([1.0, 1.0], [4, 4]).unwrap();
+        let (rest, triangles) = (mesh.positions().to_vec(), mesh.triangles().to_vec());
+        let turned: Vec<DVec3> = rest.iter().map(|p| glam::DQuat::from_rotation_x(1.0) * *p).collect();
+        Fans::new(&rest, &triangles).flat(&normals_of(&turned, &triangles), tilt, 0.01, &mut flat);
+        assert!(flat.iter().all(|&f| f), "every fan of the grid turned by 1 rad");
+        // Eight triangles round the origin in the xz-plane, less one: a wedge of 315°, and one vertex
+        // of no triangle.
+        let rim = |k: usize| {
+            let a = k as f64 * std::f64::consts::FRAC_PI_4;
+            DVec3::new(a.cos(), 0.0, -a.sin())
+        };
+        let mut points: Vec<DVec3> = std::iter::once(DVec3::ZERO).chain((0..8).map(rim)).collect();
+        points.push(DVec3::splat(5.0));
+        let slit: Vec<[usize; 3]> = (0..7).map(|k| [0, 1 + k, 1 + (k + 1) % 8]).collect();
+        Fans::new(&points, &slit).flat(&normals_of(&points, &slit), tilt, 0.01, &mut flat);
+        assert!(!flat[0], "a 315° wedge");
+        assert!(flat[1..9].iter().all(|&f| f), "its rim");
+        assert!(!flat[9], "a vertex of no triangle");
+        let half: Vec<[usize; 3]> = (0..4).map(|k| [0, 1 + k, 2 + k]).collect();
+        Fans::new(&points, &half).flat(&normals_of(&points, &half), tilt, 0.01, &mut flat);
+        assert!(flat[0], "a 180° wedge (a straight boundary)");
     }
 
     /// The unit normals of `triangles` at `x`.

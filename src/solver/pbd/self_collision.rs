@@ -29,7 +29,7 @@
 //!
 //! Along the borders between flat patches, the hierarchy hands over every pair of neighbouring
 //! triangles (their boxes overlap), though two neighbouring patches together need not be flat. A pair
-//! of triangles round a vertex whose fan is flat by the same test ([`Fans`]) is skipped instead, and
+//! of triangles round a vertex whose fan is flat by the same criterion ([`Fans`]) is skipped instead, and
 //! the fan's triangles are watched for turning with the patches'. On the wrinkled hanging sheet three
 //! quarters of the pairs handed over share a vertex, and its 300 frames take a tenth less time.
 //!
@@ -37,8 +37,8 @@
 //! 10%. A cloth stretched and sheared further (the hanging sheet at 16 substeps of one sweep, by its
 //! clips, where some triangles lose half their altitude) brings vertices of a flat patch within the
 //! reach of each other's triangles in the patch's plane. That is no crossing: a patch within 45° of one
-//! axis is a graph over the plane across it and cannot go through itself, and the search made when it
-//! stops being flat lists such pairs as they are.
+//! axis, compact and not wrapped round a point, is a graph over the plane across it and cannot go
+//! through itself, and the search made when it stops being flat lists such pairs as they are.
 //!
 //! An edge pair's normal, the direction its second edge keeps from the first, follows the gap between
 //! their closest points; the edges' common normal is used only when they touch (for nearly parallel
