@@ -116,8 +116,9 @@ fn spreads_once(v: usize, fan: &[u32], triangles: &[[usize; 3]], rest: &[DVec3])
 mod tests {
     use super::*;
 
-    /// A grid's interior and boundary fans are flat as laid out and while tilted as a whole, not once
-    /// folded through the vertex beyond the tilt's room, and not where two fans meet at a point.
+    /// A grid's interior and boundary fans are flat as laid out and bent a little, not once folded
+    /// through the vertex beyond the tilt's room nor when the reach passes their altitudes, and not
+    /// where two fans meet at a point.
     #[test]
     fn fans_are_flat_until_folded_and_pinched_vertices_have_none() {
         let mesh = crate::mesh::generate::grid([1.0, 1.0], [4, 4]).unwrap();

@@ -388,8 +388,9 @@ mod tests {
     /// inverse masses and multipliers: each `Δλ` and each particle's move), to a relative 1e-5 of the
     /// lane's largest move and the rounding of the particle's row (a unit in the last place of its
     /// distance from the first particle, whatever the distance from the origin); the eight-lane path
-    /// (where the CPU has AVX2) and the one-lane path give the same bits; a substep's first sweep, whatever its multipliers hold, gives the bits of a
-    /// sweep from cleared multipliers; and its last leaves them as they are.
+    /// (where the CPU has AVX2) and the one-lane path give the same bits; a substep's first sweep,
+    /// whatever its multipliers hold, gives the bits of a sweep from cleared multipliers; and its last
+    /// leaves them as they are.
     fn agrees<T: Lane<K, F> + Packable<K, F>, const K: usize, const F: usize>(
         case: &str,
         make: impl Fn(usize) -> T,
