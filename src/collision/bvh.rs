@@ -19,14 +19,33 @@
 //!
 //! The query can be asked for patches that stay flat while each of their triangles' normals turns by
 //! up to a tilt `δ` (a patch's cone is then at most its half-angle plus `δ`, so it is skipped only if
-//! that sum is within 45°), and it records the patches it skipped ([`TriangleTree::flat_patches`]): a
-//! caller that checks that no triangle of them has turned by more than `δ` knows they are still flat,
-//! whatever else moved.
+//! that sum is within 45°): a caller that checks that no triangle has turned by more than `δ` since
+//! its normal was taken knows the skipped patches are still flat, whatever else moved.
+//!
+//! When some triangles have turned further, the caller gives their normals now
+//! ([`TriangleTree::turn`]) and asks for the pairs that became due ([`TriangleTree::renewed_pairs`]),
+//! the boxes as they were: only the nodes holding a turned triangle are looked at within themselves
+//! again (a pair of two nodes hands over what it did, whatever their normals), and a patch that was
+//! skipped as flat and is flat no more hands over every overlapping pair within it. Each node
+//! remembers what its last look found (flat, or open: its halves and the pair of them looked at), so
+//! the pairs handed over since the last full query are those a full query with the new normals would
+//! hand over, and maybe some that a patch now flat would skip.
 
 use glam::DVec3;
 
 /// No child: a leaf.
 const LEAF: u32 = u32::MAX;
+
+/// What the last look at a node's pairs within itself found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Patch {
+    /// Not looked at since the last full query (it lies in a patch skipped as flat).
+    Unseen,
+    /// Flat: skipped.
+    Flat,
+    /// Not flat: its halves were looked at, and the pair of them.
+    Open,
+}
 
 /// `cos 45°`: the widest normal cone of a patch that can be flat.
 const FLAT: f64 = std::f64::consts::FRAC_1_SQRT_2;
@@ -42,6 +61,11 @@ struct Cone {
 
 impl Cone {
     const ALL: Cone = Cone { axis: DVec3::Z, cos: -1.0, sin: 0.0 };
+
+    /// The cone of one unit normal (every direction if it is zero: a degenerate triangle).
+    fn of(normal: DVec3) -> Cone {
+        if normal == DVec3::ZERO { Cone::ALL } else { Cone { axis: normal, cos: 1.0, sin: 0.0 } }
+    }
 
     /// A cone holding both, about the bisector of their axes, without trigonometric functions
     /// (angles added by their cosines and sines).
@@ -73,6 +97,8 @@ struct Node {
     reach: f64,
     altitude: f64,
     children: [u32; 2],
+    /// Its parent (the root's is itself).
+    parent: u32,
     triangle: u32,
     /// One past the last node of its subtree (depth-first order: the subtree is `index..end`).
     end: u32,
@@ -134,10 +160,15 @@ pub fn smallest_altitude([a, b, c]: [DVec3; 3]) -> f64 {
 pub struct TriangleTree {
     /// In depth-first order: a node's children come after it.
     nodes: Vec<Node>,
-    /// Scratch for the query.
-    stack: Vec<[u32; 2]>,
-    /// The nodes the last query skipped as flat.
-    skipped: Vec<u32>,
+    /// Each triangle's leaf.
+    leaves: Vec<u32>,
+    /// What the last look at each node found.
+    patches: Vec<Patch>,
+    /// The nodes holding a triangle turned since the last query, and a flag for each node.
+    turned: Vec<u32>,
+    is_turned: Vec<bool>,
+    /// Scratch for the query: pairs of nodes, and whether every pair under them is due.
+    stack: Vec<([u32; 2], bool)>,
 }
 
 impl TriangleTree {
@@ -146,10 +177,18 @@ impl TriangleTree {
         let centroids: Vec<DVec3> = triangles.iter().map(|t| (rest[t[0]] + rest[t[1]] + rest[t[2]]) / 3.0).collect();
         let altitudes: Vec<f64> = triangles.iter().map(|t| smallest_altitude(t.map(|i| rest[i]))).collect();
         let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-        let mut tree = Self { nodes: Vec::with_capacity(2 * triangles.len()), stack: Vec::new(), skipped: Vec::new() };
+        let mut tree = Self { nodes: Vec::with_capacity(2 * triangles.len()), ..Self::default() };
         if !order.is_empty() {
             tree.split(&mut order, &centroids, &altitudes);
         }
+        tree.leaves = vec![0; triangles.len()];
+        for (k, node) in tree.nodes.iter().enumerate() {
+            if node.children[0] == LEAF {
+                tree.leaves[node.triangle as usize] = k as u32;
+            }
+        }
+        tree.patches = vec![Patch::Unseen; tree.nodes.len()];
+        tree.is_turned = vec![false; tree.nodes.len()];
         tree
     }
 
@@ -163,6 +202,7 @@ impl TriangleTree {
             reach: 0.0,
             altitude: f64::INFINITY,
             children: [LEAF; 2],
+            parent: index,
             triangle: 0,
             end: index + 1,
         };
@@ -191,6 +231,8 @@ impl TriangleTree {
         let r = self.split(right, centroids, altitudes);
         let altitude = self.nodes[l as usize].altitude.min(self.nodes[r as usize].altitude);
         let end = self.nodes.len() as u32;
+        self.nodes[l as usize].parent = index;
+        self.nodes[r as usize].parent = index;
         let node = &mut self.nodes[index as usize];
         (node.children, node.altitude, node.end) = ([l, r], altitude, end);
         index
@@ -202,15 +244,26 @@ impl TriangleTree {
             let node = self.nodes[k];
             let (lo, hi, cone, reach) = if node.children[0] == LEAF {
                 let l = leaf(node.triangle as usize);
-                let cone =
-                    if l.normal == DVec3::ZERO { Cone::ALL } else { Cone { axis: l.normal, cos: 1.0, sin: 0.0 } };
-                (l.lo, l.hi, cone, l.reach)
+                (l.lo, l.hi, Cone::of(l.normal), l.reach)
             } else {
                 let [a, b] = [node.children[0], node.children[1]].map(|c| self.nodes[c as usize]);
                 (a.lo.min(b.lo), a.hi.max(b.hi), Cone::merge(a.cone, b.cone), a.reach.max(b.reach))
             };
             let n = &mut self.nodes[k];
             (n.lo, n.hi, n.cone, n.reach) = (lo, hi, cone, reach);
+        }
+        self.turned.iter().for_each(|&k| self.is_turned[k as usize] = false);
+        self.turned.clear();
+    }
+
+    /// Take `triangle`'s unit normal now (zero if degenerate), its box as it was.
+    pub fn turn(&mut self, triangle: u32, normal: DVec3) {
+        let mut k = self.leaves[triangle as usize];
+        self.nodes[k as usize].cone = Cone::of(normal);
+        while !self.is_turned[k as usize] {
+            self.is_turned[k as usize] = true;
+            self.turned.push(k);
+            k = self.nodes[k as usize].parent;
         }
     }
 
@@ -223,29 +276,61 @@ impl TriangleTree {
     /// Call `found` with every pair of distinct triangles whose boxes overlap, each pair once, except
     /// pairs within a patch that stays flat while its normals turn by up to `tilt` (see the module's
     /// notes).
-    pub fn overlapping_pairs(&mut self, tilt: Tilt, mut found: impl FnMut(u32, u32)) {
-        self.skipped.clear();
+    pub fn overlapping_pairs(&mut self, tilt: Tilt, found: impl FnMut(u32, u32)) {
+        self.patches.fill(Patch::Unseen);
+        self.query(tilt, true, found);
+    }
+
+    /// After [`Self::turn`], call `found` with the pairs [`Self::overlapping_pairs`] would now hand
+    /// over that it has not handed over since it was last called: those within the patches that the
+    /// turned triangles opened (each pair maybe more than once).
+    pub fn renewed_pairs(&mut self, tilt: Tilt, found: impl FnMut(u32, u32)) {
+        if self.turned.is_empty() {
+            return;
+        }
+        // Children come after their parents: merge the cones from the leaves up.
+        self.turned.sort_unstable_by(|a, b| b.cmp(a));
+        for &k in &self.turned {
+            let [l, r] = self.nodes[k as usize].children;
+            if l != LEAF {
+                self.nodes[k as usize].cone = Cone::merge(self.nodes[l as usize].cone, self.nodes[r as usize].cone);
+            }
+        }
+        self.query(tilt, false, found);
+        self.turned.iter().for_each(|&k| self.is_turned[k as usize] = false);
+        self.turned.clear();
+    }
+
+    /// The descent from the root paired with itself: every pair under a node pair marked due is
+    /// handed over (all of them if `all`); otherwise only the nodes with a turned triangle are looked
+    /// at within themselves, and a node that was not open before makes every pair within it due.
+    fn query(&mut self, tilt: Tilt, all: bool, mut found: impl FnMut(u32, u32)) {
         if self.nodes.is_empty() {
             return;
         }
-        let nodes = &self.nodes;
+        let (nodes, patches, is_turned) = (&self.nodes, &mut self.patches, &self.is_turned);
         let stack = &mut self.stack;
         stack.clear();
-        stack.push([0, 0]);
-        while let Some([a, b]) = stack.pop() {
+        stack.push(([0, 0], all));
+        while let Some(([a, b], due)) = stack.pop() {
             let (na, nb) = (&nodes[a as usize], &nodes[b as usize]);
             if a == b {
-                if na.children[0] == LEAF {
+                if na.children[0] == LEAF || !(due || is_turned[a as usize]) {
                     continue;
                 }
                 if Self::flat(na, tilt) {
-                    self.skipped.push(a);
+                    patches[a as usize] = Patch::Flat;
                 } else {
+                    let below = due || patches[a as usize] != Patch::Open;
+                    patches[a as usize] = Patch::Open;
                     let [l, r] = na.children;
-                    stack.push([l, r]);
-                    stack.push([r, r]);
-                    stack.push([l, l]);
+                    stack.push(([l, r], below));
+                    stack.push(([r, r], below));
+                    stack.push(([l, l], below));
                 }
+                continue;
+            }
+            if !due {
                 continue;
             }
             if na.lo.cmpgt(nb.hi).any() || nb.lo.cmpgt(na.hi).any() {
@@ -255,12 +340,12 @@ impl TriangleTree {
                 (true, true) => found(na.triangle, nb.triangle),
                 // Descend the node with the larger box (or the one that is not a leaf).
                 (false, leaf_b) if leaf_b || (na.hi - na.lo).length_squared() >= (nb.hi - nb.lo).length_squared() => {
-                    stack.push([na.children[1], b]);
-                    stack.push([na.children[0], b]);
+                    stack.push(([na.children[1], b], true));
+                    stack.push(([na.children[0], b], true));
                 }
                 _ => {
-                    stack.push([a, nb.children[1]]);
-                    stack.push([a, nb.children[0]]);
+                    stack.push(([a, nb.children[1]], true));
+                    stack.push(([a, nb.children[0]], true));
                 }
             }
         }
@@ -268,15 +353,30 @@ impl TriangleTree {
 
     /// Whether the last query skipped the whole mesh as one flat patch (the root).
     pub fn all_flat(&self) -> bool {
-        self.skipped == [0]
+        self.patches.first() == Some(&Patch::Flat)
     }
 
-    /// The triangles of the patches the last query skipped as flat, each once.
-    pub fn flat_patches(&self) -> impl Iterator<Item = u32> + '_ {
-        self.skipped.iter().flat_map(|&k| {
+    /// The patches skipped as flat now (the nodes reached from the root through open ones), each as
+    /// its triangles.
+    #[cfg(test)]
+    fn flat_patches(&self) -> Vec<Vec<u32>> {
+        let mut open = vec![0u32];
+        let mut flat = Vec::new();
+        while let Some(k) = open.pop() {
             let node = &self.nodes[k as usize];
-            self.nodes[k as usize..node.end as usize].iter().filter(|n| n.children[0] == LEAF).map(|n| n.triangle)
-        })
+            match self.patches[k as usize] {
+                Patch::Flat => flat.push(
+                    self.nodes[k as usize..node.end as usize]
+                        .iter()
+                        .filter(|n| n.children[0] == LEAF)
+                        .map(|n| n.triangle)
+                        .collect(),
+                ),
+                Patch::Open => open.extend(node.children),
+                Patch::Unseen => {}
+            }
+        }
+        flat
     }
 }
 
@@ -392,11 +492,63 @@ mod tests {
         for (tilt, patches, pairs) in [(25.0, 1, false), (35.0, 2, true)] {
             let mut found = 0;
             tree.overlapping_pairs(Tilt::new(f64::to_radians(tilt)), |_, _| found += 1);
-            let mut covered: Vec<u32> = tree.flat_patches().collect();
+            let flat = tree.flat_patches();
+            let mut covered: Vec<u32> = flat.concat();
             covered.sort_unstable();
             assert_eq!(covered, all, "tilt {tilt}°: every triangle once");
-            assert_eq!(tree.skipped.len(), patches, "tilt {tilt}°");
+            assert_eq!(flat.len(), patches, "tilt {tilt}°");
             assert_eq!(found > 0, pairs, "tilt {tilt}°: {found} pairs");
+        }
+    }
+
+    /// Renewing after some triangles turned hands over exactly the pairs a full query with the new
+    /// normals hands over that the query with the old ones did not: a sheet searched flat, then its
+    /// triangles beyond a line given the normals of a sharp fold there (the boxes as they were), and
+    /// again with the fold undone.
+    #[test]
+    fn renewed_pairs_are_what_a_full_query_adds() {
+        let mesh = crate::mesh::generate::grid([1.0, 1.0], [16, 12]).unwrap();
+        let (rest, triangles) = (mesh.positions().to_vec(), mesh.triangles().to_vec());
+        let (cos, sin) = (150f64.to_radians().cos(), 150f64.to_radians().sin());
+        let folded: Vec<DVec3> = rest
+            .iter()
+            .map(|p| if p.x > 0.1 { DVec3::new(0.1 + (p.x - 0.1) * cos, (p.x - 0.1) * sin, p.z) } else { *p })
+            .collect();
+        let normals = |x: &[DVec3]| -> Vec<DVec3> {
+            triangles.iter().map(|t| (x[t[1]] - x[t[0]]).cross(x[t[2]] - x[t[0]]).normalize()).collect()
+        };
+        let (flat, bent) = (normals(&rest), normals(&folded));
+        // Boxes of the rest shape grown by 4 cm (the reach), so that neighbours overlap.
+        let query = |tree: &mut TriangleTree, n: &[DVec3]| {
+            tree.refit(|t| {
+                let (lo, hi) = crate::mesh::bounds(&triangles[t].map(|i| rest[i]));
+                Leaf { lo: lo - 0.02, hi: hi + 0.02, normal: n[t], reach: 0.001 }
+            });
+            let mut found = std::collections::BTreeSet::new();
+            tree.overlapping_pairs(Tilt::NONE, |a, b| {
+                found.insert([a.min(b), a.max(b)]);
+            });
+            found
+        };
+        let mut tree = TriangleTree::new(&rest, &triangles);
+        for (from, to, opens) in [(&flat, &bent, true), (&bent, &flat, false)] {
+            let before = query(&mut tree, from);
+            let after = query(&mut TriangleTree::new(&rest, &triangles), to);
+            let mut renewed = std::collections::BTreeSet::new();
+            for t in (0..triangles.len()).filter(|&t| from[t] != to[t]) {
+                tree.turn(t as u32, to[t]);
+            }
+            tree.renewed_pairs(Tilt::NONE, |a, b| {
+                renewed.insert([a.min(b), a.max(b)]);
+            });
+            let added: std::collections::BTreeSet<[u32; 2]> = after.difference(&before).copied().collect();
+            assert!(
+                renewed.is_subset(&after) && added.is_subset(&renewed),
+                "{} added, {} renewed",
+                added.len(),
+                renewed.len()
+            );
+            assert_eq!((added.is_empty(), tree.all_flat()), (!opens, !opens));
         }
     }
 

@@ -64,20 +64,23 @@ impl Fans {
         &self.triangles[self.start[v] as usize..self.start[v + 1] as usize]
     }
 
-    /// Into `flat`, for each vertex, whether its fan is flat with the triangles' unit `normals` now
-    /// (zero if degenerate) while each turns by up to `tilt`, with no vertices and edges in it that
-    /// share no corner within `reach` of each other.
+    /// Into `flat`, for each vertex, whether its fan is flat ([`Self::flat_at`]).
     pub fn flat(&self, normals: &[DVec3], tilt: Tilt, reach: f64, flat: &mut Vec<bool>) {
-        let widest = tilt.widest();
         flat.clear();
-        flat.extend((0..self.altitude.len()).map(|v| {
-            let fan = self.of(v);
-            if fan.is_empty() || !far_apart(self.altitude[v], reach) {
-                return false;
-            }
-            let axis = fan.iter().map(|&t| normals[t as usize]).sum::<DVec3>().normalize_or_zero();
-            fan.iter().all(|&t| normals[t as usize].dot(axis) >= widest)
-        }));
+        flat.extend((0..self.altitude.len()).map(|v| self.flat_at(v, normals, tilt, reach)));
+    }
+
+    /// Whether vertex `v`'s fan is flat with the triangles' unit `normals` now (zero if degenerate)
+    /// while each turns by up to `tilt`, with no vertices and edges in it that share no corner within
+    /// `reach` of each other.
+    pub fn flat_at(&self, v: usize, normals: &[DVec3], tilt: Tilt, reach: f64) -> bool {
+        let fan = self.of(v);
+        if fan.is_empty() || !far_apart(self.altitude[v], reach) {
+            return false;
+        }
+        let axis = fan.iter().map(|&t| normals[t as usize]).sum::<DVec3>().normalize_or_zero();
+        let widest = tilt.widest();
+        fan.iter().all(|&t| normals[t as usize].dot(axis) >= widest)
     }
 }
 

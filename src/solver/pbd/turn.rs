@@ -36,8 +36,8 @@ impl Packable<3, 0> for Watched {
     }
 }
 
-/// Triangles and their normals, watched for turning, eight to a batch (lanes past a batch's count
-/// repeat its last).
+/// Triangles and their normals, watched for turning, eight to a batch in their order (triangle `t` is
+/// lane `t % 8` of batch `t / 8`; lanes past a batch's count repeat its last).
 #[derive(Debug, Clone, Default)]
 pub struct Watch {
     batches: Vec<Batch<3, 0>>,
@@ -50,47 +50,62 @@ impl Watch {
         Self { batches: Batches::new(&all, &[0, all.len()]).batches }
     }
 
-    /// How many triangles are watched.
-    #[cfg(test)]
-    pub fn triangles(&self) -> usize {
-        self.batches.iter().map(|b| b.count).sum()
+    /// Take triangle `t`'s unit normal now (its lane, and the lanes after it that repeat it).
+    pub fn set(&mut self, t: usize, normal: DVec3) {
+        let b = &mut self.batches[t / LANES];
+        let lanes = if t % LANES + 1 == b.count { t % LANES..LANES } else { t % LANES..t % LANES + 1 };
+        for (values, n) in b.constants.iter_mut().zip(normal.to_array()) {
+            values[lanes.clone()].fill(n as f32);
+        }
     }
 
-    /// Whether a watched triangle has turned at the positions of either of `rows` by `angle` or more
-    /// since its normal was taken (or has no normal there); maybe also when it turned by a little
-    /// less, never when it turned by less than `angle` − 10 mrad.
-    pub fn turned(&self, rows: [Indexed<&[Row]>; 2], angle: f64) -> bool {
-        self.check(rows, angle, true)
+    /// Into `turned` (cleared first), in order, the watched triangles that have turned at the
+    /// positions of either of `rows` by `angle` or more since their normals were taken (or have no
+    /// normal there); maybe also some that turned by a little less, never one that turned by less
+    /// than `angle` − 10 mrad.
+    pub fn turned(&self, rows: [Indexed<&[Row]>; 2], angle: f64, turned: &mut Vec<u32>) {
+        self.check(rows, angle, true, turned);
     }
 
     /// [`Self::turned`], eight triangles at a time if `fastest` and the CPU has AVX2, else one at a time.
-    fn check(&self, rows: [Indexed<&[Row]>; 2], angle: f64, fastest: bool) -> bool {
-        if self.batches.is_empty() {
-            return false;
-        }
+    fn check(&self, rows: [Indexed<&[Row]>; 2], angle: f64, fastest: bool, turned: &mut Vec<u32>) {
+        turned.clear();
         if rows[0].mask != rows[1].mask {
-            return true;
+            turned.extend(self.batches.iter().enumerate().flat_map(|(b, batch)| lanes(b, batch, 0xff)));
+            return;
         }
         let test = Test::new(angle);
         #[cfg(target_arch = "x86_64")]
-        if fastest && let Ok(turned) = crate::linalg::isa::eight(Eight { test, batches: &self.batches, rows }) {
-            return turned;
-        }
+        let turned = if fastest {
+            match crate::linalg::isa::eight(Eight { test, batches: &self.batches, rows, turned }) {
+                Ok(()) => return,
+                Err(kernel) => kernel.turned,
+            }
+        } else {
+            turned
+        };
         let one = |v: f32| Lanes32 { simd: pulp::Scalar::new(), v };
-        self.batches.iter().any(|b| {
-            (0..LANES).any(|k| {
-                let normal = [one(b.constants[0][k]), one(b.constants[1][k]), one(b.constants[2][k])];
+        for (b, batch) in self.batches.iter().enumerate() {
+            let failed = (0..LANES).filter(|&k| {
+                let normal = [one(batch.constants[0][k]), one(batch.constants[1][k]), one(batch.constants[2][k])];
                 rows.iter().any(|rows| {
                     let corner = |c: usize| {
-                        let r = rows.rows[b.ids[c][k] as usize].0;
+                        let r = rows.rows[batch.ids[c][k] as usize].0;
                         [one(r[0]), one(r[1]), one(r[2])]
                     };
                     let margin = test.margin([corner(0), corner(1), corner(2)], normal).v;
                     margin <= 0.0 || margin.is_nan()
                 })
-            })
-        })
+            });
+            let mask = failed.fold(0, |mask, k| mask | 1 << k);
+            turned.extend(lanes(b, batch, mask));
+        }
     }
+}
+
+/// The triangles of batch `b` at the lanes set in `mask` (those past its count repeat its last).
+fn lanes(b: usize, batch: &Batch<3, 0>, mask: i32) -> impl Iterator<Item = u32> {
+    (0..batch.count).filter(move |&k| mask >> k & 1 != 0).map(move |k| (b * LANES + k) as u32)
 }
 
 /// The test's constants: the cosine of the tested angle (the limit less the slack) and the sine of
@@ -150,14 +165,15 @@ struct Eight<'a> {
     test: Test,
     batches: &'a [Batch<3, 0>],
     rows: [Indexed<&'a [Row]>; 2],
+    turned: &'a mut Vec<u32>,
 }
 
 #[cfg(target_arch = "x86_64")]
 impl crate::linalg::isa::Eight for Eight<'_> {
-    type Output = bool;
+    type Output = ();
 
     #[inline(always)]
-    fn run(self, simd: pulp::x86::V3) -> bool {
+    fn run(self, simd: pulp::x86::V3) {
         use pulp::cast;
         // Loops, not closures: a closure the compiler declines to inline would run without AVX2.
         let zero = Lanes32 { simd, v: cast(simd.avx._mm256_setzero_ps()) };
@@ -165,7 +181,7 @@ impl crate::linalg::isa::Eight for Eight<'_> {
         let [start, end] = self.rows;
         let (start, end) =
             (Indexed { rows: &start.rows[..=start.mask], ..start }, Indexed { rows: &end.rows[..=end.mask], ..end });
-        for b in self.batches {
+        for (k, b) in self.batches.iter().enumerate() {
             let (mut c, mut d, mut normal) = ([[zero; 3]; 3], [[zero; 3]; 3], [zero; 3]);
             for ((c, d), ids) in c.iter_mut().zip(&mut d).zip(&b.ids) {
                 let [x, y, z, _] = super::eight::gather(simd, start.rows, start.mask, ids);
@@ -178,11 +194,11 @@ impl crate::linalg::isa::Eight for Eight<'_> {
             }
             let (m, n) = (self.test.margin(c, normal), self.test.margin(d, normal));
             let pass = simd.avx._mm256_and_ps(cast(m.constant(0.0).less(m)), cast(n.constant(0.0).less(n)));
-            if simd.avx._mm256_movemask_ps(pass) != 0xff {
-                return true;
+            let passed = simd.avx._mm256_movemask_ps(pass);
+            if passed != 0xff {
+                self.turned.extend(lanes(k, b, !passed & 0xff));
             }
         }
-        false
     }
 }
 
@@ -198,6 +214,13 @@ mod tests {
         rows
     }
 
+    /// The triangles of `watch` turned between `rows`, by either path.
+    fn turned(watch: &Watch, rows: [&Rows; 2], limit: f64, fastest: bool) -> Vec<u32> {
+        let mut turned = Vec::new();
+        watch.check(rows.map(Rows::indexed), limit, fastest, &mut turned);
+        turned
+    }
+
     /// A triangle of a flat sheet far from the origin, turned about its first edge by `degrees`.
     fn turned_triangle(degrees: f64, offset: DVec3) -> (Vec<DVec3>, [u32; 3]) {
         let (c, s) = (degrees.to_radians().cos(), degrees.to_radians().sin());
@@ -206,7 +229,8 @@ mod tests {
 
     /// The batch test agrees with the angle: a triangle turned under the limit less the slack passes
     /// and one turned to the limit or beyond does not, at the start or the end, in any lane of a batch
-    /// and at either path; one with no normal any more has turned.
+    /// and at either path, and only it is reported; its normal taken again, it passes; one with no
+    /// normal any more has turned.
     #[test]
     fn a_triangle_has_turned_exactly_when_its_normal_has() {
         let limit = 10f64.to_radians();
@@ -223,14 +247,20 @@ mod tests {
                         y.extend(p);
                         flat.extend(turned_triangle(0.0, offset).0);
                     }
-                    let watch = Watch::new(triangles);
-                    assert_eq!(watch.triangles(), 13);
+                    let mut watch = Watch::new(triangles);
                     let (flat, y) = (rows(&flat), rows(&y));
                     for fastest in [true, false] {
                         for (when, both) in [("end", [&flat, &y]), ("start", [&y, &flat])] {
-                            let got = watch.check(both.map(Rows::indexed), limit, fastest);
-                            assert_eq!(got, expect, "{degrees}° at {place} at the {when}, {offset}, fastest {fastest}");
+                            let got = turned(&watch, both, limit, fastest);
+                            let want = if expect { vec![place] } else { vec![] };
+                            assert_eq!(got, want, "{degrees}° at {place} at the {when}, {offset}, fastest {fastest}");
                         }
+                    }
+                    // Its normal taken as it is now (the first edge is along x): no longer turned.
+                    let (c, s) = (degrees.to_radians().cos(), degrees.to_radians().sin());
+                    watch.set(place as usize, DVec3::new(0.0, -s, c));
+                    for fastest in [true, false] {
+                        assert!(turned(&watch, [&y, &y], limit, fastest).is_empty(), "{degrees}° at {place} taken");
                     }
                 }
             }
@@ -240,7 +270,7 @@ mod tests {
         for fastest in [true, false] {
             let y = rows(&y);
             assert!(
-                Watch::new([(t, DVec3::Z)]).check([y.indexed(), y.indexed()], limit, fastest),
+                turned(&Watch::new([(t, DVec3::Z)]), [&y, &y], limit, fastest) == [0],
                 "a degenerate triangle has turned"
             );
         }
@@ -254,12 +284,12 @@ mod tests {
         let limit = 10f64.to_radians();
         for fastest in [true, false] {
             let y = rows(&y);
-            assert!(!Watch::new([(t, DVec3::Z)]).check([y.indexed(), y.indexed()], limit, fastest));
+            assert!(turned(&Watch::new([(t, DVec3::Z)]), [&y, &y], limit, fastest).is_empty());
         }
         y.insert(0, DVec3::new(-1e5, 0.0, 0.0));
         for fastest in [true, false] {
             let y = rows(&y);
-            assert!(Watch::new([(t.map(|i| i + 1), DVec3::Z)]).check([y.indexed(), y.indexed()], limit, fastest));
+            assert_eq!(turned(&Watch::new([(t.map(|i| i + 1), DVec3::Z)]), [&y, &y], limit, fastest), [0]);
         }
     }
 }
