@@ -6,9 +6,10 @@
 //! triangles ([`TriangleTree`], its boxes refitted and grown by the margins): each pair of triangles
 //! whose boxes overlap hands over the pairs of its vertices and edges — each vertex and edge through
 //! one triangle that owns it, so that no pair is listed twice. The list holds while no two vertices
-//! have moved, relative to each other, by their margins since the search: each displacement stays
-//! within half its vertex's margin of the mean displacement (checked at the start and the predicted
-//! end of every substep; a shared translation, as in a fall, does not count). When one has, the search
+//! have moved, relative to each other, by their margins since the search: each vertex stays within
+//! half its margin of its anchor (its position at the search less the cloth's mean position then),
+//! relative to the cloth's mean position (checked at the start and the predicted end of every
+//! substep; a shared translation, as in a fall, does not count). When one has not, the search
 //! is made again from the substep's start; a vertex's margin is a fifth of the mean edge plus twice
 //! its own relative travel in that substep, so a fast vertex gets room and a still one costs little.
 //! Where searches come within four substeps of each other and list few pairs (under 2% of the
@@ -17,25 +18,32 @@
 //! hanging sheet: 965 searches in 300 frames instead of 1,647; with the fans below, 0.73 of the time).
 //!
 //! Patches that are flat are not searched within, whatever the margins: the hierarchy skips a patch
-//! whose normals lie within 35° of one axis and whose smallest altitude keeps its vertices and edges
+//! whose normals lie within 40° of one axis and whose smallest altitude keeps its vertices and edges
 //! more than the thickness plus the least margin apart (see [`crate::collision::bvh`]). Such a patch
 //! stays flat, and so holds no pair within that distance (a pair that acts, within the thickness and
 //! over its triangle or facing across its normal, is nearer), while none of its triangles' normals has
-//! turned by more than 10° since the search (its cone then stays within 45°); that is checked with
-//! the drift, and a triangle that turned further makes the search again. So the margins, which only
-//! widen the boxes, do not list every near neighbour of a moving sheet. When the search found the
-//! whole cloth one flat patch (the hierarchy's root skipped), there is no pair, and none can come
-//! while it stays flat, so the drift is not checked at all (the 10,000-particle hanging sheet,
-//! swinging in its plane, is searched once in its first 157 frames instead of five to eight times a
-//! frame; once it wrinkles out of its plane, the drift of its swing makes the search again in most
-//! substeps).
-//! Several flat patches covering the cloth are not enough: pairs between them can come.
+//! turned by more than 5° since it was taken (its cone then stays within 45°). Every triangle is
+//! watched for that in every substep ([`Watch`]), and those that turned further are renewed instead of
+//! searching again: their normals are taken anew, the hierarchy's nodes holding them are looked at
+//! within themselves again, and a patch (or a fan, below) that was flat and is no more lists its pairs
+//! at the search's anchors and margins, which still hold ([`TriangleTree::renewed_pairs`]): what a
+//! search would list now. So the margins, which only widen the boxes, do not list every near neighbour
+//! of a moving sheet, and a wrinkle that forms is not a search. (A tilt of 5° rather than 10°: flat
+//! patches up to 40° wide instead of 35°, more renewals but cheaper searches; the wrinkled hanging
+//! sheet 0.96 of the time.)
+//!
+//! When the search found the whole cloth one flat patch (the hierarchy's root skipped), there is no
+//! pair, and none can come while it stays flat, so the drift is not checked until a triangle turns
+//! (the 10,000-particle hanging sheet, swinging in its plane, is searched once in its first 157 frames
+//! instead of five to eight times a frame; once it wrinkles out of its plane, the drift of its swing
+//! makes the search again every two to four substeps). Several flat patches covering the cloth are
+//! not enough: pairs between them can come.
 //!
 //! Along the borders between flat patches, the hierarchy hands over every pair of neighbouring
 //! triangles (their boxes overlap), though two neighbouring patches together need not be flat. A pair
-//! of triangles round a vertex whose fan is flat by the same criterion ([`Fans`]) is skipped instead, and
-//! the fan's triangles are watched for turning with the patches'. On the wrinkled hanging sheet three
-//! quarters of the pairs handed over share a vertex, and its 300 frames take a tenth less time.
+//! of triangles round a vertex whose fan is flat by the same criterion ([`Fans`]) is skipped instead. On
+//! the wrinkled hanging sheet three quarters of the pairs handed over share a vertex, and its 300
+//! frames take a tenth less time.
 //!
 //! The hierarchy's and the fans' bound on distances assumes triangles keep their rest altitudes within
 //! 10%. A cloth stretched and sheared further (the hanging sheet at 16 substeps of one sweep, by its
@@ -73,7 +81,7 @@ use crate::energy::constraints::point_triangle;
 use crate::mesh::bounds;
 
 /// How far a triangle of a patch skipped as flat may turn before the search is made again, radians.
-const TILT: f64 = 10.0 * std::f64::consts::PI / 180.0;
+const TILT: f64 = 5.0 * std::f64::consts::PI / 180.0;
 
 /// The most substeps of its travel a vertex's margin is stretched to allow for.
 const MOST_STRETCH: f64 = 4.0;
