@@ -327,7 +327,13 @@ impl SelfCollision {
             }
         }
         (self.whole, self.tree) = (tree.all_flat(), tree);
-        self.list(vertices, edges, true);
+        if self.whole {
+            // The whole cloth flat again holds no pair, as a search would find.
+            self.pairs.clear();
+            self.edge_pairs.clear();
+        } else {
+            self.list(vertices, edges, true);
+        }
     }
 
     /// What the pairs of two triangles are judged by: the last search's positions and margins.
@@ -564,6 +570,13 @@ mod tests {
         assert!(!sc.whole, "the folded sheet is not one flat patch");
         find(&mut sc, &folded, &folded, &triangles, thickness);
         assert_eq!((sc.searches, sc.renewals), (2, 1), "nothing moved");
+        assert!(!sc.pairs.is_empty(), "pairs by the fold (the margins allow for it)");
+        // Unfolded to where it was searched: renewed, one flat patch again, and no pair.
+        find(&mut sc, &b, &b, &triangles, thickness);
+        assert_eq!((sc.searches, sc.renewals, sc.whole), (2, 2, true));
+        assert!(sc.pairs.is_empty() && sc.edge_pairs.is_empty(), "a flat sheet holds no pair");
+        find(&mut sc, &folded, &folded, &triangles, thickness);
+        assert_eq!((sc.searches, sc.renewals, sc.whole), (2, 3, false), "folded again");
         // Not one flat patch: a shear in its plane beyond the margins makes the search again.
         let drifted: Vec<DVec3> = folded.iter().map(|p| *p + DVec3::new(0.0, 0.0, 0.2 * (p.x - 3.0))).collect();
         find(&mut sc, &folded, &drifted, &triangles, thickness);
