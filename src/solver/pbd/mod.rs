@@ -30,6 +30,7 @@ mod contact;
 #[cfg(target_arch = "x86_64")]
 mod eight;
 mod model;
+mod near;
 mod params;
 mod project;
 mod self_collision;

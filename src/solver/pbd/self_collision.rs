@@ -72,13 +72,13 @@ use glam::DVec3;
 #[cfg(any(doc, test))]
 use super::batch::Rows;
 use super::batch::{Indexed, Row};
+use super::near::Near;
 use super::self_contact::{self, EdgePair, Pair, over};
 use super::turn::Watch;
 use crate::collision::bvh::{Leaf, Tilt, TriangleTree};
-use crate::collision::closest::{self, closest_on_triangle, segment_gap};
+use crate::collision::closest::segment_gap;
 use crate::collision::fans::Fans;
 use crate::energy::constraints::point_triangle;
-use crate::mesh::bounds;
 
 /// How far a triangle of a patch skipped as flat may turn before the search is made again, radians.
 const TILT: f64 = 5.0 * std::f64::consts::PI / 180.0;
@@ -408,83 +408,6 @@ impl SelfCollision {
     }
 }
 
-/// What decides the pairs of two triangles: positions and margins at the search, and the mesh.
-struct Near<'a> {
-    x: &'a [DVec3],
-    triangles: &'a [[usize; 3]],
-    margins: &'a [f64],
-    thickness: f64,
-    flat_fans: &'a [bool],
-    edges: &'a [[usize; 2]],
-    triangle_edges: &'a [[u32; 3]],
-    vertex_owner: &'a [u32],
-    edge_owner: &'a [u32],
-}
-
-impl Near<'_> {
-    /// The margin of a side made of these vertices: the largest of theirs.
-    fn side(&self, ids: &[usize]) -> f64 {
-        ids.iter().map(|&i| self.margins[i]).fold(0.0, f64::max)
-    }
-
-    /// Triangle `t`'s box grown by half its reach (the thickness and its side's margin): two that
-    /// overlap may hold a pair within reach, and no pair within reach lies in two that do not.
-    fn bounds(&self, t: usize) -> (DVec3, DVec3) {
-        let reach = self.thickness + self.side(&self.triangles[t]);
-        let (lo, hi) = bounds(&self.triangles[t].map(|i| self.x[i]));
-        (lo - 0.5 * reach, hi + 0.5 * reach)
-    }
-
-    /// Add to `vertices` and `edges` the pairs that triangles `a` and `b` hand over (each vertex and
-    /// edge through the triangle that owns it) closer than the thickness plus half their sides'
-    /// margins, unless the triangles lie round a vertex whose fan is flat (no pair within reach).
-    fn pairs(&self, a: u32, b: u32, vertices: &mut Vec<[u32; 2]>, edges: &mut Vec<[u32; 2]>) {
-        let (x, triangles, thickness) = (self.x, self.triangles, self.thickness);
-        let (ta, tb) = (triangles[a as usize], triangles[b as usize]);
-        if ta.iter().any(|&v| tb.contains(&v) && self.flat_fans[v]) {
-            return;
-        }
-        for (s, t) in [(a, b), (b, a)] {
-            let (ts, tt) = (triangles[s as usize], triangles[t as usize]);
-            let corners = tt.map(|i| x[i]);
-            let (lo, hi) = bounds(&corners);
-            let mt = self.side(&tt);
-            for &v in ts.iter().filter(|&&v| self.vertex_owner[v] == s && !tt.contains(&v)) {
-                let reach = thickness + 0.5 * (self.margins[v] + mt);
-                // A vertex within reach of the triangle is within reach of its box.
-                if x[v].cmplt(lo - reach).any() || x[v].cmpgt(hi + reach).any() {
-                    continue;
-                }
-                let on = closest::at(corners, closest_on_triangle(x[v], corners).0);
-                if (x[v] - on).length_squared() <= reach * reach {
-                    vertices.push([v as u32, t]);
-                }
-            }
-        }
-        let owned =
-            |t: u32| self.triangle_edges[t as usize].into_iter().filter(move |&e| self.edge_owner[e as usize] == t);
-        for e in owned(a) {
-            for f in owned(b) {
-                let (ee, ff) = (self.edges[e as usize], self.edges[f as usize]);
-                if ff.contains(&ee[0]) || ff.contains(&ee[1]) {
-                    continue;
-                }
-                let reach = thickness + 0.5 * (self.side(&ee) + self.side(&ff));
-                let (i, j) = (ee.map(|k| x[k]), ff.map(|k| x[k]));
-                // Edges within reach of each other have boxes within reach.
-                if i[0].min(i[1]).cmpgt(j[0].max(j[1]) + reach).any()
-                    || j[0].min(j[1]).cmpgt(i[0].max(i[1]) + reach).any()
-                {
-                    continue;
-                }
-                if segment_gap(i, j).length_squared() <= reach * reach {
-                    edges.push([e.min(f), e.max(f)]);
-                }
-            }
-        }
-    }
-}
-
 /// Twice a triangle's area along its normal, `(c₁ − c₀) × (c₂ − c₀)`.
 #[inline(always)]
 fn area_normal(c: [DVec3; 3]) -> DVec3 {
@@ -512,6 +435,7 @@ fn carry<P: Copy>(keys: &[[u32; 2]], old: &[P], key: impl Fn(&P) -> [u32; 2], ne
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::collision::closest::{self, closest_on_triangle};
 
     /// A grid sheet of `size` (m) and `cells` in the xz-plane, with its edges and mean edge length.
     struct Sheet {

@@ -1,0 +1,94 @@
+//! The narrow phase of self-collision's search ([`super::self_collision`]): the vertex–triangle and
+//! edge–edge pairs that two triangles whose boxes overlap hand over, judged at the search's positions
+//! against the thickness plus the margins, and the boxes those margins give.
+
+use glam::DVec3;
+
+use crate::collision::closest::{self, closest_on_triangle, segment_gap};
+use crate::mesh::bounds;
+
+/// What decides the pairs of two triangles: positions and margins at the search, and the mesh.
+pub struct Near<'a> {
+    /// Positions (the search's anchors), margins and the thickness.
+    pub x: &'a [DVec3],
+    /// The mesh's triangles.
+    pub triangles: &'a [[usize; 3]],
+    /// Each vertex's margin.
+    pub margins: &'a [f64],
+    /// The thickness.
+    pub thickness: f64,
+    /// Whether each vertex's fan is flat.
+    pub flat_fans: &'a [bool],
+    /// The mesh's edges.
+    pub edges: &'a [[usize; 2]],
+    /// Each triangle's edges.
+    pub triangle_edges: &'a [[u32; 3]],
+    /// The triangle through which each vertex is paired.
+    pub vertex_owner: &'a [u32],
+    /// The triangle through which each edge is paired.
+    pub edge_owner: &'a [u32],
+}
+
+impl Near<'_> {
+    /// The margin of a side made of these vertices: the largest of theirs.
+    fn side(&self, ids: &[usize]) -> f64 {
+        ids.iter().map(|&i| self.margins[i]).fold(0.0, f64::max)
+    }
+
+    /// Triangle `t`'s box grown by half its reach (the thickness and its side's margin): two that
+    /// overlap may hold a pair within reach, and no pair within reach lies in two that do not.
+    pub fn bounds(&self, t: usize) -> (DVec3, DVec3) {
+        let reach = self.thickness + self.side(&self.triangles[t]);
+        let (lo, hi) = bounds(&self.triangles[t].map(|i| self.x[i]));
+        (lo - 0.5 * reach, hi + 0.5 * reach)
+    }
+
+    /// Add to `vertices` and `edges` the pairs that triangles `a` and `b` hand over (each vertex and
+    /// edge through the triangle that owns it) closer than the thickness plus half their sides'
+    /// margins, unless the triangles lie round a vertex whose fan is flat (no pair within reach).
+    pub fn pairs(&self, a: u32, b: u32, vertices: &mut Vec<[u32; 2]>, edges: &mut Vec<[u32; 2]>) {
+        let (x, triangles, thickness) = (self.x, self.triangles, self.thickness);
+        let (ta, tb) = (triangles[a as usize], triangles[b as usize]);
+        if ta.iter().any(|&v| tb.contains(&v) && self.flat_fans[v]) {
+            return;
+        }
+        for (s, t) in [(a, b), (b, a)] {
+            let (ts, tt) = (triangles[s as usize], triangles[t as usize]);
+            let corners = tt.map(|i| x[i]);
+            let (lo, hi) = bounds(&corners);
+            let mt = self.side(&tt);
+            for &v in ts.iter().filter(|&&v| self.vertex_owner[v] == s && !tt.contains(&v)) {
+                let reach = thickness + 0.5 * (self.margins[v] + mt);
+                // A vertex within reach of the triangle is within reach of its box.
+                if x[v].cmplt(lo - reach).any() || x[v].cmpgt(hi + reach).any() {
+                    continue;
+                }
+                let on = closest::at(corners, closest_on_triangle(x[v], corners).0);
+                if (x[v] - on).length_squared() <= reach * reach {
+                    vertices.push([v as u32, t]);
+                }
+            }
+        }
+        let owned =
+            |t: u32| self.triangle_edges[t as usize].into_iter().filter(move |&e| self.edge_owner[e as usize] == t);
+        for e in owned(a) {
+            for f in owned(b) {
+                let (ee, ff) = (self.edges[e as usize], self.edges[f as usize]);
+                if ff.contains(&ee[0]) || ff.contains(&ee[1]) {
+                    continue;
+                }
+                let reach = thickness + 0.5 * (self.side(&ee) + self.side(&ff));
+                let (i, j) = (ee.map(|k| x[k]), ff.map(|k| x[k]));
+                // Edges within reach of each other have boxes within reach.
+                if i[0].min(i[1]).cmpgt(j[0].max(j[1]) + reach).any()
+                    || j[0].min(j[1]).cmpgt(i[0].max(i[1]) + reach).any()
+                {
+                    continue;
+                }
+                if segment_gap(i, j).length_squared() <= reach * reach {
+                    edges.push([e.min(f), e.max(f)]);
+                }
+            }
+        }
+    }
+}
