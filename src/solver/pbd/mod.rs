@@ -526,6 +526,7 @@ impl Solver for Pbd {
             info.push(("self-collision pairs", (sc.pairs.len() + sc.edge_pairs.len()) as f64));
             info.push(("self-collision pairs in reach", sc.active() as f64));
             info.push(("self-collision searches", sc.searches as f64));
+            info.push(("self-collision renewals", sc.renewals as f64));
         }
         info
     }
