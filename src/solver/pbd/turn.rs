@@ -1,7 +1,7 @@
-//! Whether any of a set of triangles has turned by more than an angle since their normals were taken
+//! Which of a set of triangles have turned by more than an angle since their normals were taken
 //! (self-collision's test that its flat patches are still flat, [`super::self_collision`]).
 //!
-//! The test runs every substep over every triangle of a flat sheet, at the substep's start and its
+//! The test runs every substep over every triangle of the cloth, at the substep's start and its
 //! predicted end, so it takes eight triangles at a time where the CPU has AVX2, in single precision,
 //! at both positions at once, from the rows the sweeps read ([`super::batch::Rows`]: positions
 //! rounded once, relative to the first particle), each batch's corners loaded as the sweeps load
