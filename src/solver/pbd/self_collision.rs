@@ -275,19 +275,17 @@ impl SelfCollision {
         let flat_reach = thickness + self.least_margin;
         let tilt = Tilt::new(TILT);
         self.normals.clear();
-        self.normals.extend(triangles.iter().map(|t| area_normal(t.map(|i| x[i])).normalize_or_zero()));
-        let normals = &self.normals;
+        self.normals.extend(triangles.iter().map(|&t| unit_normal(t, x)));
+        self.normals.iter().enumerate().for_each(|(t, &n)| self.watched.set(t, n));
+        self.fans.flat(&self.normals, tilt, flat_reach, &mut self.flat_fans);
         // The hierarchy is taken out while the pairs' judge borrows the rest.
         let mut tree = std::mem::take(&mut self.tree);
-        let near = self.near(triangles, thickness);
+        let (near, normals) = (self.near(triangles, thickness), &self.normals);
         tree.refit(|t| {
             let (lo, hi) = near.bounds(t);
             Leaf { lo, hi, normal: normals[t], reach: flat_reach }
         });
-        normals.iter().enumerate().for_each(|(t, &n)| self.watched.set(t, n));
-        self.fans.flat(normals, tilt, flat_reach, &mut self.flat_fans);
         let (mut vertices, mut edges) = (Vec::new(), Vec::new());
-        let near = self.near(triangles, thickness);
         tree.overlapping_pairs(tilt, |a, b| near.pairs(a, b, &mut vertices, &mut edges));
         (self.whole, self.tree) = (tree.all_flat(), tree);
         self.list(vertices, edges, false);
@@ -300,7 +298,7 @@ impl SelfCollision {
         self.renewals += 1;
         let (flat_reach, tilt) = (thickness + self.least_margin, Tilt::new(TILT));
         for &t in &self.turned {
-            let n = area_normal(triangles[t as usize].map(|i| x[i])).normalize_or_zero();
+            let n = unit_normal(triangles[t as usize], x);
             self.normals[t as usize] = n;
             self.watched.set(t as usize, n);
             self.tree.turn(t, n);
@@ -408,10 +406,11 @@ impl SelfCollision {
     }
 }
 
-/// Twice a triangle's area along its normal, `(c₁ − c₀) × (c₂ − c₀)`.
+/// The unit normal of `triangle` at `x`, along `(c₁ − c₀) × (c₂ − c₀)` (zero if degenerate).
 #[inline(always)]
-fn area_normal(c: [DVec3; 3]) -> DVec3 {
-    (c[1] - c[0]).cross(c[2] - c[0])
+fn unit_normal(triangle: [usize; 3], x: &[DVec3]) -> DVec3 {
+    let c = triangle.map(|i| x[i]);
+    (c[1] - c[0]).cross(c[2] - c[0]).normalize_or_zero()
 }
 
 /// The mean of the positions `y`.
