@@ -9,10 +9,28 @@
 //! wherever the cloth is. The positions themselves stay in double precision: reading the rows back
 //! adds to each particle what the sweeps moved its row, so a particle the sweeps did not move (an
 //! anchored one, say) keeps its position to the bit.
+//!
+//! A coordinate under a nanometre ([`FLUSHED`]) is stored as zero. The sweeps multiply coordinates
+//! together, and the products of such ones fall below single precision's normal range, where
+//! arithmetic costs the CPU about a hundred times as much (subnormal numbers: no flush-to-zero mode
+//! here, which would take `unsafe`). A sheet hanging in its plane meets them when it first leaves it:
+//! the disturbance spreads with ever smaller out-of-plane offsets, down to 1e-40 m. On the
+//! 10,000-particle hanging sheet, its frames 159–164 took 20–68 ms instead of 10 (`BENCHMARKS.md`). A
+//! nanometre is under the rounding of a row a few centimetres from the first particle, and what a
+//! flushed row is moved by comes back whole.
 
 use glam::DVec3;
 
 use crate::linalg::isa;
+
+/// Coordinates of the rows under this magnitude are stored as zero, m (2⁻³⁰, about a nanometre).
+pub const FLUSHED: f64 = 1.0 / (1u64 << 30) as f64;
+
+/// `v`, or zero if its magnitude is under [`FLUSHED`].
+#[inline(always)]
+fn flushed(v: f64) -> f32 {
+    (if v.abs() < FLUSHED { 0.0 } else { v }) as f32
+}
 
 /// Lanes a batch holds: those of an AVX2 single-precision register.
 pub const LANES: usize = 8;
@@ -34,7 +52,8 @@ pub struct Rows {
 }
 
 impl Rows {
-    /// The rows of particles `p` with inverse masses `w`, relative to the first particle.
+    /// The rows of particles `p` with inverse masses `w`, relative to the first particle (coordinates
+    /// under [`FLUSHED`] zero).
     pub fn fill(&mut self, p: &[DVec3], w: &[f64]) {
         struct Fill<'a>(&'a mut Rows, &'a [DVec3], &'a [f64]);
         impl isa::Kernel for Fill<'_> {
@@ -48,8 +67,7 @@ impl Rows {
                 rows.rows.resize(p.len().next_power_of_two(), Row::default());
                 let o = rows.origin;
                 for (row, (p, &w)) in rows.rows.iter_mut().zip(p.iter().zip(w)) {
-                    let r = [p.x - o.x, p.y - o.y, p.z - o.z, w];
-                    *row = Row([r[0] as f32, r[1] as f32, r[2] as f32, r[3] as f32]);
+                    *row = Row([flushed(p.x - o.x), flushed(p.y - o.y), flushed(p.z - o.z), w as f32]);
                 }
             }
         }
@@ -66,7 +84,7 @@ impl Rows {
                 let Read(rows, p) = self;
                 let o = rows.origin;
                 for (p, r) in p.iter_mut().zip(rows.particles()) {
-                    let before = [(p.x - o.x) as f32, (p.y - o.y) as f32, (p.z - o.z) as f32];
+                    let before = [flushed(p.x - o.x), flushed(p.y - o.y), flushed(p.z - o.z)];
                     // Exact where the move is under the row's distance from the origin (Sterbenz),
                     // else good to a unit in the last place of the move.
                     let moved = [r.0[0] - before[0], r.0[1] - before[1], r.0[2] - before[2]];
@@ -253,5 +271,28 @@ mod tests {
         let error = (back[2] - p[2] - step).abs().max_element();
         assert!(error <= far * f64::from(f32::EPSILON), "moved by {:?}: off by {error:e}", back[2] - p[2]);
         assert_eq!([back[0], back[1], back[3], back[4]], [p[0], p[1], p[3], p[4]], "the others");
+    }
+
+    /// Offsets from the first particle too small for single precision's normal range (and up to a
+    /// nanometre) are rows of zero; unmoved, they come back to the bit, and a move of such a row comes
+    /// back to within the flushed nanometre.
+    #[test]
+    fn offsets_under_a_nanometre_are_zero_in_the_rows_and_come_back() {
+        let p: Vec<DVec3> = [0.0, 1e-40, 0.9 * FLUSHED, 1.1 * FLUSHED, -1e-20]
+            .iter()
+            .enumerate()
+            .map(|(i, &z)| DVec3::new(0.01 * i as f64, 1.0, z))
+            .collect();
+        let mut rows = Rows::default();
+        rows.fill(&p, &[1.0; 5]);
+        let z: Vec<f32> = rows.particles().iter().map(|r| r.0[2]).collect();
+        assert_eq!(z, [0.0, 0.0, 0.0, (1.1 * FLUSHED) as f32, 0.0]);
+        assert!(rows.particles().iter().flat_map(|r| r.0).all(|c| c == 0.0 || c.is_normal()), "no subnormal row");
+        let mut back = p.clone();
+        rows.read(&mut back);
+        assert_eq!(back, p, "unmoved rows");
+        rows.indexed_mut().rows[2].0[2] += 1e-3;
+        rows.read(&mut back);
+        assert!((back[2].z - p[2].z - 1e-3).abs() <= FLUSHED, "moved by {:e}", back[2].z - p[2].z);
     }
 }
