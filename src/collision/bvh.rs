@@ -22,6 +22,15 @@
 //! that sum is within 45°): a caller that checks that no triangle has turned by more than `δ` since
 //! its normal was taken knows the skipped patches are still flat, whatever else moved.
 //!
+//! Two nodes that are each flat, whose union is flat by the same test (the merged cone, the smaller
+//! altitude, the larger reach) and that share an edge of the mesh are not paired either: together they
+//! are one patch, compact and simply connected like a node's (two neighbouring blocks of the rest
+//! shape's split), which holds no pair within reach while it stays flat. Without this, the hierarchy
+//! descends along every border between its flat patches, wherever a border of the split crosses a
+//! flat region, and hands over every pair of neighbouring triangles along it: on a wrinkled sheet
+//! most of a search's work. Such pairs of nodes are remembered, and looked at again when one of their
+//! triangles turns.
+//!
 //! When some triangles have turned further, the caller gives their normals now
 //! ([`TriangleTree::turn`]) and asks for the pairs that became due ([`TriangleTree::renewed_pairs`]),
 //! the boxes as they were: only the nodes holding a turned triangle are looked at within themselves
@@ -35,6 +44,35 @@ use glam::DVec3;
 
 /// No child: a leaf.
 const LEAF: u32 = u32::MAX;
+
+/// Each node's edges on its border (those of one of its triangles only), sorted, as vertex pairs.
+#[derive(Debug, Clone, Default)]
+struct Borders {
+    /// Node `k`'s are `edges[start[k]..start[k + 1]]`.
+    edges: Vec<[u32; 2]>,
+    start: Vec<u32>,
+}
+
+impl Borders {
+    /// Node `k`'s border edges.
+    fn of(&self, k: u32) -> &[[u32; 2]] {
+        &self.edges[self.start[k as usize] as usize..self.start[k as usize + 1] as usize]
+    }
+
+    /// Whether nodes `a` and `b` share an edge on their borders.
+    fn shared(&self, a: u32, b: u32) -> bool {
+        let (x, y) = (self.of(a), self.of(b));
+        let (mut i, mut j) = (0, 0);
+        while i < x.len() && j < y.len() {
+            match x[i].cmp(&y[j]) {
+                std::cmp::Ordering::Less => i += 1,
+                std::cmp::Ordering::Greater => j += 1,
+                std::cmp::Ordering::Equal => return true,
+            }
+        }
+        false
+    }
+}
 
 /// What the last look at a node's pairs within itself found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -167,8 +205,13 @@ pub struct TriangleTree {
     /// The nodes holding a triangle turned since the last query, and a flag for each node.
     turned: Vec<u32>,
     is_turned: Vec<bool>,
-    /// Scratch for the query: pairs of nodes, and whether every pair under them is due.
-    stack: Vec<([u32; 2], bool)>,
+    /// Scratch for the query: pairs of nodes, whether every pair under them is due, and whether they
+    /// are known to share no edge (nor then does any pair under them).
+    stack: Vec<([u32; 2], bool, bool)>,
+    /// Each node's edges on its border.
+    borders: Borders,
+    /// The pairs of neighbouring nodes skipped as one flat patch since the last full query.
+    joined: Vec<[u32; 2]>,
 }
 
 impl TriangleTree {
@@ -189,7 +232,60 @@ impl TriangleTree {
         }
         tree.patches = vec![Patch::Unseen; tree.nodes.len()];
         tree.is_turned = vec![false; tree.nodes.len()];
+        tree.find_borders(triangles);
         tree
+    }
+
+    /// Each node's border edges: a leaf's three, and a parent's those that only one of its children
+    /// has on its border (the edges both have are inside it).
+    fn find_borders(&mut self, triangles: &[[usize; 3]]) {
+        let mut borders: Vec<Vec<[u32; 2]>> = vec![Vec::new(); self.nodes.len()];
+        for k in (0..self.nodes.len()).rev() {
+            let node = &self.nodes[k];
+            borders[k] = if node.children[0] == LEAF {
+                let t = triangles[node.triangle as usize].map(|v| v as u32);
+                let mut edges: Vec<[u32; 2]> =
+                    (0..3).map(|j| [t[j].min(t[(j + 1) % 3]), t[j].max(t[(j + 1) % 3])]).collect();
+                edges.sort_unstable();
+                edges
+            } else {
+                let [l, r] = node.children.map(|c| &borders[c as usize]);
+                let mut merged: Vec<[u32; 2]> = l.iter().chain(r).copied().collect();
+                merged.sort_unstable();
+                let shared: Vec<[u32; 2]> = merged.windows(2).filter(|w| w[0] == w[1]).map(|w| w[0]).collect();
+                merged.retain(|e| shared.binary_search(e).is_err());
+                merged
+            };
+        }
+        let start = std::iter::once(0)
+            .chain(borders.iter().scan(0u32, |n, b| {
+                *n += b.len() as u32;
+                Some(*n)
+            }))
+            .collect();
+        self.borders = Borders { edges: borders.concat(), start };
+    }
+
+    /// Whether nodes `a` and `b` are flat together as one patch (see the module's notes) while their
+    /// normals turn by up to `tilt`: each flat, their union flat, and sharing an edge.
+    fn flat_together(nodes: &[Node], borders: &Borders, [a, b]: [u32; 2], tilt: Tilt) -> bool {
+        Self::flat_as_one(nodes, [a, b], tilt) && borders.shared(a, b)
+    }
+
+    /// Whether nodes `a` and `b` are each flat and flat as one (their union's cone, smaller altitude
+    /// and larger reach): flat together if they also share an edge.
+    fn flat_as_one(nodes: &[Node], [a, b]: [u32; 2], tilt: Tilt) -> bool {
+        let (na, nb) = (&nodes[a as usize], &nodes[b as usize]);
+        if !(Self::flat(na, tilt) && Self::flat(nb, tilt)) {
+            return false;
+        }
+        let union = Node {
+            cone: Cone::merge(na.cone, nb.cone),
+            reach: na.reach.max(nb.reach),
+            altitude: na.altitude.min(nb.altitude),
+            ..*na
+        };
+        Self::flat(&union, tilt)
     }
 
     /// Append the subtree of `items` (depth first); returns its index.
@@ -278,7 +374,8 @@ impl TriangleTree {
     /// notes).
     pub fn overlapping_pairs(&mut self, tilt: Tilt, found: impl FnMut(u32, u32)) {
         self.patches.fill(Patch::Unseen);
-        self.query(tilt, true, found);
+        self.joined.clear();
+        self.query(tilt, true, &[], found);
     }
 
     /// After [`Self::turn`], call `found` with the pairs [`Self::overlapping_pairs`] would now hand
@@ -296,7 +393,19 @@ impl TriangleTree {
                 self.nodes[k as usize].cone = Cone::merge(self.nodes[l as usize].cone, self.nodes[r as usize].cone);
             }
         }
-        self.query(tilt, false, found);
+        // Neighbours skipped as one flat patch are looked at again if either has a turned triangle: no
+        // longer flat together, every pair under them is due.
+        let (nodes, borders, is_turned) = (&self.nodes, &self.borders, &self.is_turned);
+        let mut reopened = Vec::new();
+        self.joined.retain(|&[a, b]| {
+            let kept =
+                !(is_turned[a as usize] || is_turned[b as usize]) || Self::flat_together(nodes, borders, [a, b], tilt);
+            if !kept {
+                reopened.push([a, b]);
+            }
+            kept
+        });
+        self.query(tilt, false, &reopened, found);
         self.turned.iter().for_each(|&k| self.is_turned[k as usize] = false);
         self.turned.clear();
     }
@@ -304,15 +413,16 @@ impl TriangleTree {
     /// The descent from the root paired with itself: every pair under a node pair marked due is
     /// handed over (all of them if `all`); otherwise only the nodes with a turned triangle are looked
     /// at within themselves, and a node that was not open before makes every pair within it due.
-    fn query(&mut self, tilt: Tilt, all: bool, mut found: impl FnMut(u32, u32)) {
+    fn query(&mut self, tilt: Tilt, all: bool, reopened: &[[u32; 2]], mut found: impl FnMut(u32, u32)) {
         if self.nodes.is_empty() {
             return;
         }
-        let (nodes, patches, is_turned) = (&self.nodes, &mut self.patches, &self.is_turned);
-        let stack = &mut self.stack;
+        let (nodes, patches, is_turned, borders) = (&self.nodes, &mut self.patches, &self.is_turned, &self.borders);
+        let (stack, joined) = (&mut self.stack, &mut self.joined);
         stack.clear();
-        stack.push(([0, 0], all));
-        while let Some(([a, b], due)) = stack.pop() {
+        stack.extend(reopened.iter().rev().map(|&pair| (pair, true, false)));
+        stack.push(([0, 0], all, false));
+        while let Some(([a, b], due, mut unshared)) = stack.pop() {
             let (na, nb) = (&nodes[a as usize], &nodes[b as usize]);
             if a == b {
                 if na.children[0] == LEAF || !(due || is_turned[a as usize]) {
@@ -324,9 +434,9 @@ impl TriangleTree {
                     let below = due || patches[a as usize] != Patch::Open;
                     patches[a as usize] = Patch::Open;
                     let [l, r] = na.children;
-                    stack.push(([l, r], below));
-                    stack.push(([r, r], below));
-                    stack.push(([l, l], below));
+                    stack.push(([l, r], below, false));
+                    stack.push(([r, r], below, false));
+                    stack.push(([l, l], below, false));
                 }
                 continue;
             }
@@ -336,16 +446,25 @@ impl TriangleTree {
             if na.lo.cmpgt(nb.hi).any() || nb.lo.cmpgt(na.hi).any() {
                 continue;
             }
+            // Two neighbours flat together are one flat patch. Two that share no edge have no pairs
+            // under them that do (an edge two of their triangles share is on both their borders).
+            if !unshared && Self::flat_as_one(nodes, [a, b], tilt) {
+                if borders.shared(a, b) {
+                    joined.push([a, b]);
+                    continue;
+                }
+                unshared = true;
+            }
             match (na.children[0] == LEAF, nb.children[0] == LEAF) {
                 (true, true) => found(na.triangle, nb.triangle),
                 // Descend the node with the larger box (or the one that is not a leaf).
                 (false, leaf_b) if leaf_b || (na.hi - na.lo).length_squared() >= (nb.hi - nb.lo).length_squared() => {
-                    stack.push(([na.children[1], b], true));
-                    stack.push(([na.children[0], b], true));
+                    stack.push(([na.children[1], b], true, unshared));
+                    stack.push(([na.children[0], b], true, unshared));
                 }
                 _ => {
-                    stack.push(([a, nb.children[1]], true));
-                    stack.push(([a, nb.children[0]], true));
+                    stack.push(([a, nb.children[1]], true, unshared));
+                    stack.push(([a, nb.children[0]], true, unshared));
                 }
             }
         }
@@ -518,6 +637,19 @@ mod tests {
             triangles.iter().map(|t| (x[t[1]] - x[t[0]]).cross(x[t[2]] - x[t[0]]).normalize()).collect()
         };
         let (flat, bent) = (normals(&rest), normals(&folded));
+        // Normals curling through 180° across the sheet (neighbouring patches flat together), and the
+        // same with a band of them turned 100° further (those patches no longer flat together).
+        let curl = |kink: f64| -> Vec<DVec3> {
+            triangles
+                .iter()
+                .map(|t| {
+                    let x = t.iter().map(|&i| rest[i].x).sum::<f64>() / 3.0;
+                    let angle = std::f64::consts::PI * x + if (0.1..0.25).contains(&x) { kink } else { 0.0 };
+                    DVec3::new(angle.sin(), angle.cos(), 0.0)
+                })
+                .collect()
+        };
+        let (curled, kinked) = (curl(0.0), curl(100f64.to_radians()));
         // Boxes of the rest shape grown by 4 cm (the reach), so that neighbours overlap.
         let query = |tree: &mut TriangleTree, n: &[DVec3]| {
             tree.refit(|t| {
@@ -531,7 +663,7 @@ mod tests {
             found
         };
         let mut tree = TriangleTree::new(&rest, &triangles);
-        for (from, to, opens) in [(&flat, &bent, true), (&bent, &flat, false)] {
+        for (from, to, opens) in [(&flat, &bent, true), (&bent, &flat, false), (&curled, &kinked, true)] {
             let before = query(&mut tree, from);
             let after = query(&mut TriangleTree::new(&rest, &triangles), to);
             let mut renewed = std::collections::BTreeSet::new();
@@ -548,8 +680,102 @@ mod tests {
                 added.len(),
                 renewed.len()
             );
-            assert_eq!((added.is_empty(), tree.all_flat()), (!opens, !opens));
+            assert_eq!(added.is_empty(), !opens);
+            assert_eq!(tree.all_flat(), to == &flat);
         }
+    }
+
+    /// Two disjoint nodes share an edge on their borders exactly when a triangle of one and a
+    /// triangle of the other share an edge (checked over every such pair of a grid's hierarchy).
+    #[test]
+    fn nodes_share_a_border_edge_exactly_when_their_triangles_do() {
+        let mesh = crate::mesh::generate::grid([1.0, 1.0], [9, 7]).unwrap();
+        let (rest, triangles) = (mesh.positions().to_vec(), mesh.triangles().to_vec());
+        let tree = TriangleTree::new(&rest, &triangles);
+        let edges = |k: usize| -> std::collections::BTreeSet<[usize; 2]> {
+            let node = &tree.nodes[k];
+            tree.nodes[k..node.end as usize]
+                .iter()
+                .filter(|n| n.children[0] == LEAF)
+                .flat_map(|n| {
+                    let t = triangles[n.triangle as usize];
+                    (0..3).map(move |j| [t[j].min(t[(j + 1) % 3]), t[j].max(t[(j + 1) % 3])])
+                })
+                .collect()
+        };
+        let all: Vec<_> = (0..tree.nodes.len()).map(edges).collect();
+        let (mut shared, mut apart) = (0, 0);
+        for a in 0..tree.nodes.len() {
+            for b in tree.nodes[a].end as usize..tree.nodes.len() {
+                let expected = !all[a].is_disjoint(&all[b]);
+                assert_eq!(tree.borders.shared(a as u32, b as u32), expected, "nodes {a} and {b}");
+                *if expected { &mut shared } else { &mut apart } += 1;
+            }
+        }
+        assert!(shared > 100 && apart > 100, "{shared} sharing, {apart} not");
+    }
+
+    /// A sheet whose normals curl through 180° has no flat patch as wide as itself, but its
+    /// neighbouring patches are flat together: no pair of its triangles is handed over (its boxes
+    /// overlap only where it is one flat patch). A sheet folded twice into three flat layers, the first and
+    /// the last facing the same way and within reach of each other, is not one flat patch there: they
+    /// share no edge, and every pair of triangles within reach across them is handed over.
+    #[test]
+    fn neighbouring_flat_patches_are_skipped_together_and_layers_are_not() {
+        use crate::collision::closest::{at, closest_on_triangle};
+        let mesh = crate::mesh::generate::grid([1.2, 0.4], [24, 8]).unwrap();
+        let (rest, triangles) = (mesh.positions().to_vec(), mesh.triangles().to_vec());
+        let normal = |x: &[DVec3], t: &[usize; 3]| (x[t[1]] - x[t[0]]).cross(x[t[2]] - x[t[0]]).normalize();
+        let query = |x: &[DVec3], n: &[DVec3], reach: f64| {
+            let mut tree = TriangleTree::new(&rest, &triangles);
+            tree.refit(|t| {
+                let (lo, hi) = crate::mesh::bounds(&triangles[t].map(|i| x[i]));
+                Leaf { lo: lo - 0.5 * reach, hi: hi + 0.5 * reach, normal: n[t], reach }
+            });
+            let mut found = std::collections::BTreeSet::new();
+            tree.overlapping_pairs(Tilt::NONE, |a, b| {
+                found.insert([a.min(b), a.max(b)]);
+            });
+            found
+        };
+        // Rolled round a cylinder through 180° (radius 1.2 m / π).
+        let radius = 1.2 / std::f64::consts::PI;
+        let rolled: Vec<DVec3> = rest
+            .iter()
+            .map(|p| DVec3::new(radius * (p.x / radius).sin(), radius * (1.0 - (p.x / radius).cos()), p.z))
+            .collect();
+        let n: Vec<DVec3> = triangles.iter().map(|t| normal(&rolled, t)).collect();
+        assert!(query(&rolled, &n, 0.01).is_empty(), "neighbouring flat patches skipped together");
+        // Folded into three layers of 0.4 m, 5 mm apart: x → x, then back, then forth again. A reach of
+        // 1.5 cm leaves each layer flat (altitudes of 3.5 cm).
+        let layer = |x: f64| ((x + 0.6) / 0.4).floor().clamp(0.0, 2.0);
+        let folded: Vec<DVec3> = rest
+            .iter()
+            .map(|p| {
+                let (k, along) = (layer(p.x), p.x + 0.6 - 0.4 * layer(p.x));
+                let x = if k == 1.0 { 0.4 - along } else { along };
+                DVec3::new(x, 0.005 * k, p.z)
+            })
+            .collect();
+        let n: Vec<DVec3> = triangles.iter().map(|t| normal(&folded, t)).collect();
+        let reach = 0.015;
+        let found = query(&folded, &n, reach);
+        let of = |t: &[usize; 3]| layer(t.iter().map(|&i| rest[i].x).sum::<f64>() / 3.0);
+        let mut across = 0;
+        for (a, ta) in triangles.iter().enumerate().filter(|(_, t)| of(t) == 0.0) {
+            for (b, tb) in triangles.iter().enumerate().filter(|(_, t)| of(t) == 2.0) {
+                let corners = tb.map(|i| folded[i]);
+                let near = ta.iter().any(|&v| {
+                    let q = folded[v];
+                    (q - at(corners, closest_on_triangle(q, corners).0)).length() <= reach
+                });
+                if near {
+                    across += 1;
+                    assert!(found.contains(&[a.min(b) as u32, a.max(b) as u32]), "{a} and {b}, 1 cm apart");
+                }
+            }
+        }
+        assert!(across > 100, "the outer layers face each other: {across} pairs");
     }
 
     /// With small reaches, flat patches are not searched within, yet every pair of triangles sharing

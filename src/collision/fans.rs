@@ -12,7 +12,7 @@
 //! no vertices and edges sharing no corner within reach of each other (at least `cos 45°` times the
 //! fan's smallest altitude apart, less 10% for stretch), whatever the rest of the mesh does. This
 //! covers the pairs of neighbours along the borders between the hierarchy's flat patches, which the
-//! hierarchy alone cannot skip (two neighbouring patches together need not be flat). A vertex where
+//! hierarchy skips only where the two patches are flat together. A vertex where
 //! two separate fans meet (a mesh pinched to a point there) has none either.
 
 use glam::DVec3;
