@@ -15,9 +15,10 @@
 //! arithmetic costs the CPU about a hundred times as much (subnormal numbers: no flush-to-zero mode
 //! here, which would take `unsafe`). A sheet hanging in its plane meets them when it first leaves it:
 //! the disturbance spreads with ever smaller out-of-plane offsets, down to 1e-40 m. On the
-//! 10,000-particle hanging sheet, its frames 159–164 took 20–68 ms instead of 10 (`BENCHMARKS.md`). A
-//! nanometre is under the rounding of a row a few centimetres from the first particle, and what a
-//! flushed row is moved by comes back whole.
+//! 10,000-particle hanging sheet, its frames 159–164 took 20–68 ms instead of 10; with the flush,
+//! 11–13 ms, as products of larger offsets still underflow now and then (`BENCHMARKS.md`). A nanometre
+//! is under the rounding of a row a few centimetres from the first particle, and what a flushed row
+//! is moved by comes back whole.
 
 use glam::DVec3;
 
