@@ -42,6 +42,8 @@
 
 use glam::DVec3;
 
+use crate::mesh::sides;
+
 /// No child: a leaf.
 const LEAF: u32 = u32::MAX;
 
@@ -243,18 +245,14 @@ impl TriangleTree {
         for k in (0..self.nodes.len()).rev() {
             let node = &self.nodes[k];
             borders[k] = if node.children[0] == LEAF {
-                let t = triangles[node.triangle as usize].map(|v| v as u32);
-                let mut edges: Vec<[u32; 2]> =
-                    (0..3).map(|j| [t[j].min(t[(j + 1) % 3]), t[j].max(t[(j + 1) % 3])]).collect();
+                let mut edges = sides(triangles[node.triangle as usize]).map(|e| e.map(|v| v as u32));
                 edges.sort_unstable();
-                edges
+                edges.to_vec()
             } else {
                 let [l, r] = node.children.map(|c| &borders[c as usize]);
-                let mut merged: Vec<[u32; 2]> = l.iter().chain(r).copied().collect();
-                merged.sort_unstable();
-                let shared: Vec<[u32; 2]> = merged.windows(2).filter(|w| w[0] == w[1]).map(|w| w[0]).collect();
-                merged.retain(|e| shared.binary_search(e).is_err());
-                merged
+                let mut both: Vec<[u32; 2]> = l.iter().chain(r).copied().collect();
+                both.sort_unstable();
+                both.chunk_by(|a, b| a == b).filter(|run| run.len() == 1).map(|run| run[0]).collect()
             };
         }
         let start = std::iter::once(0)
@@ -697,10 +695,7 @@ mod tests {
             tree.nodes[k..node.end as usize]
                 .iter()
                 .filter(|n| n.children[0] == LEAF)
-                .flat_map(|n| {
-                    let t = triangles[n.triangle as usize];
-                    (0..3).map(move |j| [t[j].min(t[(j + 1) % 3]), t[j].max(t[(j + 1) % 3])])
-                })
+                .flat_map(|n| sides(triangles[n.triangle as usize]))
                 .collect()
         };
         let all: Vec<_> = (0..tree.nodes.len()).map(edges).collect();

@@ -166,6 +166,12 @@ pub(crate) fn bounds(points: &[DVec3]) -> (DVec3, DVec3) {
     points.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)))
 }
 
+/// A triangle's three edges, each as its vertices in increasing order (edge `k` joins corners `k`
+/// and `k + 1`).
+pub(crate) fn sides(t: [usize; 3]) -> [[usize; 2]; 3] {
+    std::array::from_fn(|k| [t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])])
+}
+
 fn area_of(p: &[DVec3], t: &[usize; 3]) -> f64 {
     0.5 * (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).length()
 }

@@ -142,10 +142,8 @@ impl SelfCollision {
     pub fn new(rest: &[DVec3], triangles: &[[usize; 3]], edges: Vec<[usize; 2]>, mean_edge: f64) -> Self {
         let index: HashMap<[usize; 2], u32> =
             edges.iter().enumerate().map(|(k, e)| ([e[0].min(e[1]), e[0].max(e[1])], k as u32)).collect();
-        let triangle_edges: Vec<[u32; 3]> = triangles
-            .iter()
-            .map(|t| std::array::from_fn(|k| index[&[t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])]]))
-            .collect();
+        let triangle_edges: Vec<[u32; 3]> =
+            triangles.iter().map(|&t| crate::mesh::sides(t).map(|e| index[&e])).collect();
         let mut vertex_owner = vec![u32::MAX; rest.len()];
         let mut edge_owner = vec![u32::MAX; edges.len()];
         for (t, (tri, es)) in triangles.iter().zip(&triangle_edges).enumerate() {
