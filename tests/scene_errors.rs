@@ -110,6 +110,8 @@ fn every_validation_check_names_its_key() {
         ("solver.substeps=0".into(), "solver.substeps", "at least 1"),
         ("solver.sweeps=0".into(), "solver.sweeps", "at least 1"),
         ("solver.thickness=-0.01".into(), "solver.thickness", "must be positive"),
+        ("solver.least_area=1".into(), "solver.least_area", "fraction of the rest area in [0, 1)"),
+        ("solver.least_area=-0.1".into(), "solver.least_area", "fraction of the rest area in [0, 1)"),
         ("material.compliance_stretch=-1e-3".into(), "material.compliance_stretch", "must not be negative"),
         ("material.compliance_bend=-1".into(), "material.compliance_bend", "must not be negative"),
         ("material.pbd_stretch=1.5".into(), "material.pbd_stretch", "stiffness in [0, 1]"),

@@ -102,6 +102,17 @@ pub fn six_volume(x: &[DVec3], triangles: &[[usize; 3]], gradient: &mut [DVec3])
     v
 }
 
+/// Twice the area of the triangle `(p₁, p₂, p₃)` as seen along the unit `axis`: `C = N·â`,
+/// `N = (p₂ − p₁) × (p₃ − p₁)` (negative once the triangle has turned over as seen from `â`), and its
+/// gradient with respect to `[p₁, p₂, p₃]`: `∇_{p₂} C = (p₃ − p₁) × â`, `∇_{p₃} C = â × (p₂ − p₁)`,
+/// `∇_{p₁} C = −∇_{p₂} C − ∇_{p₃} C` (from `a·(u × v) = u·(v × a)`).
+pub fn area_along(p: [DVec3; 3], axis: DVec3) -> (f64, [DVec3; 3]) {
+    let [p1, p2, p3] = p;
+    let (e2, e3) = (p2 - p1, p3 - p1);
+    let (g2, g3) = (e3.cross(axis), axis.cross(e2));
+    (e2.cross(e3).dot(axis), [-(g2 + g3), g2, g3])
+}
+
 /// Signed distance of `q` from the plane of the triangle `(p₁, p₂, p₃)` minus a thickness:
 /// `C = (q − p₁)·n̂ − h`, `n̂ = N/|N|`, `N = (p₂ − p₁) × (p₃ − p₁)`, and its exact gradient with
 /// respect to `[q, p₁, p₂, p₃]`. With `u = (I − n̂n̂ᵀ)(q − p₁)/|N|` (how moving `N` turns `n̂` towards
@@ -222,6 +233,22 @@ mod tests {
         six_volume(&x, &tris, &mut g);
         let e = check(&x, &g, |y| six_volume(y, &tris, &mut [DVec3::ZERO; 8]));
         assert!(e < 1e-6, "{e}");
+    }
+
+    #[test]
+    fn area_along_gradient_matches_finite_differences_and_turns_negative_when_the_triangle_turns_over() {
+        let mut rng = Lcg(5);
+        for _ in 0..20 {
+            let x = [rng.vec(), rng.vec(), rng.vec()];
+            let axis = rng.vec().normalize();
+            let (_, g) = area_along(x, axis);
+            let e = check(&x, &g, |y| area_along([y[0], y[1], y[2]], axis).0);
+            assert!(e < 1e-6, "{e}");
+        }
+        // The unit right triangle in the xz plane, seen from +y: twice its area is 1, turned over −1.
+        let t = [DVec3::ZERO, DVec3::Z, DVec3::X];
+        assert!((area_along(t, DVec3::Y).0 - 1.0).abs() < 1e-15);
+        assert!((area_along([t[0], t[2], t[1]], DVec3::Y).0 + 1.0).abs() < 1e-15);
     }
 
     #[test]

@@ -9,6 +9,6 @@ mod trimesh;
 pub use error::MeshError;
 pub use topology::{Edge, Hinge, Topology};
 pub use trimesh::TriMesh;
-pub(crate) use trimesh::{bounds, sides};
+pub(crate) use trimesh::{area_of, bounds, sides};
 pub mod generate;
 pub mod obj;

@@ -172,7 +172,8 @@ pub(crate) fn sides(t: [usize; 3]) -> [[usize; 2]; 3] {
     std::array::from_fn(|k| [t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])])
 }
 
-fn area_of(p: &[DVec3], t: &[usize; 3]) -> f64 {
+/// The area of triangle `t` at positions `p`.
+pub(crate) fn area_of(p: &[DVec3], t: &[usize; 3]) -> f64 {
     0.5 * (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).length()
 }
 

@@ -419,6 +419,11 @@ pub struct SolverSettings {
     /// edge length).
     #[serde(default)]
     pub thickness: Option<f64>,
+    /// Position-based methods: the least area each triangle keeps, as a fraction of its rest area
+    /// (in `[0, 1)`; absent or 0: no such constraint). Keeps a membrane of edges from collapsing a
+    /// triangle in its plane and turning it over.
+    #[serde(default)]
+    pub least_area: Option<f64>,
 }
 
 fn default_substeps() -> usize {

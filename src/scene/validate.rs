@@ -212,6 +212,12 @@ impl Scene {
         if let Some(t) = s.thickness {
             positive("solver.thickness", t)?;
         }
+        if let Some(a) = s.least_area {
+            finite("solver.least_area", a)?;
+            if !(0.0..1.0).contains(&a) {
+                return Err(("solver.least_area".into(), format!("is a fraction of the rest area in [0, 1), got {a}")));
+            }
+        }
         let m = &self.material;
         for (key, k) in [("material.pbd_stretch", m.pbd_stretch), ("material.pbd_bend", m.pbd_bend)] {
             finite(key, k)?;

@@ -105,6 +105,9 @@ pub struct Pbd {
     mu: (f64, f64),
     thickness: f64,
     k_pressure: f64,
+    /// The least area a triangle keeps, / its rest area (0: none), and twice each rest area.
+    least_area: f64,
+    double_areas: Vec<f64>,
     stiffness: (f64, f64),
     compliance: (Option<f64>, Option<f64>),
     k_s: f64,
@@ -173,6 +176,8 @@ impl Pbd {
             mu: (check("mu_s", m.mu_s)?, check("mu_k", m.mu_k)?),
             thickness,
             k_pressure: check("k_pressure", m.k_pressure.unwrap_or(0.0))?,
+            least_area: check("least_area", s.least_area.unwrap_or(0.0))?,
+            double_areas: model.triangles.iter().map(|t| 2.0 * crate::mesh::area_of(&model.rest, t)).collect(),
             stiffness: (check("pbd_stretch", m.pbd_stretch)?, check("pbd_bend", m.pbd_bend)?),
             compliance: (m.compliance_stretch, m.compliance_bend),
             k_s: check("k_s", m.k_s)?,
@@ -304,6 +309,16 @@ impl Pbd {
             let i = touch.particle;
             let body = &mut self.bodies[touch.body];
             contact::rub_particle(&mut self.p[i], self.x[i], self.w[i], body, touch.pushed, h, self.mu);
+        }
+        if self.least_area > 0.0 {
+            project::least_area(
+                &self.model.triangles,
+                &self.x,
+                &mut self.p,
+                &self.w,
+                &self.double_areas,
+                self.least_area,
+            );
         }
         // The last word goes to self-collision: the cloth must not end the substep through itself.
         if let Some(sc) = &self.self_collision {

@@ -6,7 +6,7 @@ use crate::solver::wind;
 use crate::solver::{ParamSpec, ParamValue, SolverError};
 
 /// Parameters both methods have.
-const COMMON: [ParamSpec; 9] = [
+const COMMON: [ParamSpec; 10] = [
     ParamSpec::linear("step", "time step", "s", "One step of the simulation (split into substeps).", 1e-5, 0.1),
     ParamSpec {
         integer: true,
@@ -59,6 +59,14 @@ const COMMON: [ParamSpec; 9] = [
             1.0,
         )
     },
+    ParamSpec::linear(
+        "least_area",
+        "least area",
+        "",
+        "Least area a triangle keeps, / its rest area (0: free to collapse in its plane and turn over).",
+        0.0,
+        0.99,
+    ),
     ParamSpec::linear(
         "k_pressure",
         "pressure k",
@@ -143,6 +151,7 @@ impl Pbd {
                     "mu_k" => self.mu.1,
                     "thickness" => self.thickness,
                     "k_pressure" => self.k_pressure,
+                    "least_area" => self.least_area,
                     "pbd_stretch" => self.stiffness.0,
                     "pbd_bend" => self.stiffness.1,
                     "substeps" => self.substeps as f64,
@@ -179,6 +188,7 @@ impl Pbd {
                 });
             }
             "k_pressure" => self.k_pressure = value,
+            "least_area" => self.least_area = value,
             "pbd_stretch" => self.stiffness.0 = value,
             "pbd_bend" => self.stiffness.1 = value,
             "substeps" => self.substeps = value as usize,
