@@ -51,7 +51,10 @@
 //! clips, where some triangles lose half their altitude) brings vertices of a flat patch within the
 //! reach of each other's triangles in the patch's plane. That is no crossing: a patch within 45° of one
 //! axis, compact and not wrapped round a point, is a graph over the plane across it and cannot go
-//! through itself, and the search made when it stops being flat lists such pairs as they are.
+//! through itself, and the search made when it stops being flat lists such pairs as they are — as long
+//! as none of its triangles turns over within the plane, which edges alone allow once a triangle is
+//! squeezed nearly flat (the same sheet at 8–12 substeps, beside its clips); `solver.least_area` keeps
+//! every triangle from that ([`super::project::least_area`]).
 //!
 //! An edge pair's normal, the direction its second edge keeps from the first, follows the gap between
 //! their closest points; the edges' common normal is used only when they touch (for nearly parallel
