@@ -335,12 +335,12 @@ impl TriangleTree {
     /// Refit every node from its triangles as they are now (`leaf(triangle)`).
     pub fn refit(&mut self, leaf: impl Fn(usize) -> Leaf) {
         for k in (0..self.nodes.len()).rev() {
-            let node = self.nodes[k];
-            let (lo, hi, cone, reach) = if node.children[0] == LEAF {
-                let l = leaf(node.triangle as usize);
-                (l.lo, l.hi, Cone::of(l.normal), l.reach)
+            let [l, r] = self.nodes[k].children;
+            let (lo, hi, cone, reach) = if l == LEAF {
+                let f = leaf(self.nodes[k].triangle as usize);
+                (f.lo, f.hi, Cone::of(f.normal), f.reach)
             } else {
-                let [a, b] = [node.children[0], node.children[1]].map(|c| self.nodes[c as usize]);
+                let (a, b) = (&self.nodes[l as usize], &self.nodes[r as usize]);
                 (a.lo.min(b.lo), a.hi.max(b.hi), Cone::merge(a.cone, b.cone), a.reach.max(b.reach))
             };
             let n = &mut self.nodes[k];

@@ -65,6 +65,7 @@ impl Fans {
     }
 
     /// Into `flat`, for each vertex, whether its fan is flat ([`Self::flat_at`]).
+    #[cfg(test)]
     pub fn flat(&self, normals: &[DVec3], tilt: Tilt, reach: f64, flat: &mut Vec<bool>) {
         flat.clear();
         flat.extend((0..self.altitude.len()).map(|v| self.flat_at(v, normals, tilt, reach)));

@@ -2,9 +2,13 @@
 //! edge–edge pairs that two triangles whose boxes overlap hand over, judged at the search's positions
 //! against the thickness plus the margins, and the boxes those margins give.
 
+use std::cell::Cell;
+
 use glam::DVec3;
 
+use crate::collision::bvh::Tilt;
 use crate::collision::closest::{self, closest_on_triangle, segment_gap};
+use crate::collision::fans::Fans;
 use crate::mesh::bounds;
 
 /// What decides the pairs of two triangles: positions and margins at the search, and the mesh.
@@ -17,8 +21,17 @@ pub struct Near<'a> {
     pub margins: &'a [f64],
     /// The thickness.
     pub thickness: f64,
-    /// Whether each vertex's fan is flat.
-    pub flat_fans: &'a [bool],
+    /// Whether each vertex's fan is flat, where judged already since the search.
+    pub flat_fans: &'a [Cell<Option<bool>>],
+    /// What judges the others when they are needed: the fans, the triangles' unit normals, the tilt
+    /// and the reach of a flat patch.
+    pub fans: &'a Fans,
+    /// The triangles' unit normals.
+    pub normals: &'a [DVec3],
+    /// The tilt each normal may turn by.
+    pub tilt: Tilt,
+    /// The reach a flat patch keeps its vertices and edges apart by.
+    pub flat_reach: f64,
     /// The mesh's edges.
     pub edges: &'a [[usize; 2]],
     /// Each triangle's edges.
@@ -35,6 +48,17 @@ impl Near<'_> {
         ids.iter().map(|&i| self.margins[i]).fold(0.0, f64::max)
     }
 
+    /// Whether vertex `v`'s fan is flat, judged the first time it is asked after the search (most fans
+    /// lie within patches the hierarchy skips, and are never asked).
+    fn fan_flat(&self, v: usize) -> bool {
+        let known = &self.flat_fans[v];
+        known.get().unwrap_or_else(|| {
+            let flat = self.fans.flat_at(v, self.normals, self.tilt, self.flat_reach);
+            known.set(Some(flat));
+            flat
+        })
+    }
+
     /// Triangle `t`'s box grown by half its reach (the thickness and its side's margin): two that
     /// overlap may hold a pair within reach, and no pair within reach lies in two that do not.
     pub fn bounds(&self, t: usize) -> (DVec3, DVec3) {
@@ -49,7 +73,7 @@ impl Near<'_> {
     pub fn pairs(&self, a: u32, b: u32, vertices: &mut Vec<[u32; 2]>, edges: &mut Vec<[u32; 2]>) {
         let (x, triangles, thickness) = (self.x, self.triangles, self.thickness);
         let (ta, tb) = (triangles[a as usize], triangles[b as usize]);
-        if ta.iter().any(|&v| tb.contains(&v) && self.flat_fans[v]) {
+        if ta.iter().any(|&v| tb.contains(&v) && self.fan_flat(v)) {
             return;
         }
         for (s, t) in [(a, b), (b, a)] {

@@ -69,6 +69,7 @@
 //! through in a substep is brought back); otherwise its side is where it is. Edge pairs likewise.
 //! Pairs come in a fixed order: the same scene gives the same result, bit for bit.
 
+use std::cell::Cell;
 use std::collections::HashMap;
 
 use glam::DVec3;
@@ -118,10 +119,10 @@ pub struct SelfCollision {
     whole: bool,
     /// Every triangle, with the unit normal it had when it was last searched or renewed.
     watched: Watch,
-    /// Those normals, whether each vertex's fan was flat with them, and the triangles that have turned
+    /// Those normals, whether each vertex's fan was flat with them (judged when first needed), and the triangles that have turned
     /// by the tilt since (scratch).
     normals: Vec<DVec3>,
-    flat_fans: Vec<bool>,
+    flat_fans: Vec<Cell<Option<bool>>>,
     turned: Vec<u32>,
     /// Renewals made so far (searches within the patches that turned).
     pub renewals: u64,
@@ -279,7 +280,8 @@ impl SelfCollision {
         self.normals.clear();
         self.normals.extend(triangles.iter().map(|&t| unit_normal(t, x)));
         self.normals.iter().enumerate().for_each(|(t, &n)| self.watched.set(t, n));
-        self.fans.flat(&self.normals, tilt, flat_reach, &mut self.flat_fans);
+        self.flat_fans.clear();
+        self.flat_fans.resize(x.len(), Cell::new(None));
         // The hierarchy is taken out while the pairs' judge borrows the rest.
         let mut tree = std::mem::take(&mut self.tree);
         let (near, normals) = (self.near(triangles, thickness), &self.normals);
@@ -311,10 +313,10 @@ impl SelfCollision {
         let mut opened = Vec::new();
         for v in corners {
             let flat = self.fans.flat_at(v, &self.normals, tilt, flat_reach);
-            if self.flat_fans[v] && !flat {
+            if self.flat_fans[v].get() == Some(true) && !flat {
                 opened.push(v);
             }
-            self.flat_fans[v] = flat;
+            self.flat_fans[v].set(Some(flat));
         }
         let (mut vertices, mut edges) = (Vec::new(), Vec::new());
         let mut tree = std::mem::take(&mut self.tree);
@@ -344,6 +346,10 @@ impl SelfCollision {
             margins: &self.margins,
             thickness,
             flat_fans: &self.flat_fans,
+            fans: &self.fans,
+            normals: &self.normals,
+            tilt: Tilt::new(TILT),
+            flat_reach: thickness + self.least_margin,
             edges: &self.edges,
             triangle_edges: &self.triangle_edges,
             vertex_owner: &self.vertex_owner,
@@ -532,7 +538,9 @@ mod tests {
             if crease {
                 assert!(near > 20, "the layers touch by the crease: {near} pairs");
             } else {
-                assert!(!sc.whole && sc.flat_fans.iter().all(|&f| f), "neighbours skipped round flat fans");
+                let judged: Vec<bool> = sc.flat_fans.iter().filter_map(Cell::get).collect();
+                assert!(!sc.whole && !judged.is_empty(), "neighbours handed over round fans");
+                assert!(judged.iter().all(|&f| f), "and skipped: every fan judged is flat");
             }
         }
     }
