@@ -23,8 +23,7 @@ pub struct Near<'a> {
     pub thickness: f64,
     /// Whether each vertex's fan is flat, where judged already since the search.
     pub flat_fans: &'a [Cell<Option<bool>>],
-    /// What judges the others when they are needed: the fans, the triangles' unit normals, the tilt
-    /// and the reach of a flat patch.
+    /// The fans (judged, with the three fields below, when first asked about).
     pub fans: &'a Fans,
     /// The triangles' unit normals.
     pub normals: &'a [DVec3],

@@ -119,8 +119,8 @@ pub struct SelfCollision {
     whole: bool,
     /// Every triangle, with the unit normal it had when it was last searched or renewed.
     watched: Watch,
-    /// Those normals, whether each vertex's fan was flat with them (judged when first needed), and the triangles that have turned
-    /// by the tilt since (scratch).
+    /// Those normals, whether each vertex's fan was flat with them (judged when first needed), and the
+    /// triangles that have turned by the tilt since (scratch).
     normals: Vec<DVec3>,
     flat_fans: Vec<Cell<Option<bool>>>,
     turned: Vec<u32>,
