@@ -74,9 +74,23 @@ fn count(scene_name: &str, sets: &[String], frames: usize) -> (usize, usize) {
     (bad_frames, most)
 }
 
-/// Frames with intersections and the most in one frame, over `frames` frames of the pile.
-fn pile(self_collision: bool, frames: usize) -> (usize, usize) {
-    count("pile", &[format!("solver.self_collision={self_collision}")], frames)
+/// Assert that `frames` frames of `scene_name` with `sets` (`what`, for the report) never intersect.
+fn assert_whole(what: &str, scene_name: &str, sets: &[String], frames: usize) {
+    let (bad, most) = count(scene_name, sets, frames);
+    eprintln!("{what}: {bad} of {frames} frames with intersections (at most {most} pairs)");
+    assert_eq!(bad, 0, "{what}: {bad} frames intersect (up to {most} triangle pairs)");
+}
+
+/// Assert that some of `frames` frames of `scene_name` with `sets` (`what`) intersect.
+fn assert_crosses(what: &str, scene_name: &str, sets: &[String], frames: usize) {
+    let (bad, most) = count(scene_name, sets, frames);
+    eprintln!("{what}: {bad} of {frames} frames with intersections (at most {most} pairs)");
+    assert!(bad > 0, "{what}: expected intersections within {frames} frames");
+}
+
+/// The pile's settings with self-collision on or off.
+fn pile(self_collision: bool) -> [String; 1] {
+    [format!("solver.self_collision={self_collision}")]
 }
 
 /// The 10,000-particle sheet of the benchmark (`benches/pbd.rs`): the hanging sheet refined to 100 ×
@@ -104,18 +118,14 @@ fn sheet(substeps: usize, sweeps: usize, least_area: f64) -> Vec<String> {
 /// falls from its clips, folds and swings (5 s).
 #[test]
 fn the_benchmarked_sheet_never_intersects_itself() {
-    let (bad, most) = count("hanging-sheet", &sheet(12, 1, 0.2), 300);
-    eprintln!("10,000-particle sheet, 12 substeps × 1 sweep: {bad} of 300 frames with intersections (at most {most})");
-    assert_eq!(bad, 0, "{bad} frames intersect (up to {most} triangle pairs)");
+    assert_whole("10,000-particle sheet, 12 × 1, least area 0.2", "hanging-sheet", &sheet(12, 1, 0.2), 300);
 }
 
 /// The benchmark's settings keep the pile whole as well (600 frames).
 #[test]
 fn the_pile_at_the_benchmarks_settings_never_intersects_itself() {
     let sets = ["solver.substeps=12", "solver.sweeps=1", "solver.least_area=0.2"].map(String::from);
-    let (bad, most) = count("pile", &sets, 600);
-    eprintln!("pile, 12 substeps × 1 sweep: {bad} of 600 frames with intersections (at most {most})");
-    assert_eq!(bad, 0, "{bad} frames intersect (up to {most} triangle pairs)");
+    assert_whole("pile, 12 × 1, least area 0.2", "pile", &sets, 600);
 }
 
 /// At 8 substeps of one sweep the sheet's edges alone let a triangle beside a clip collapse in the
@@ -123,21 +133,15 @@ fn the_pile_at_the_benchmarks_settings_never_intersects_itself() {
 /// collision missed, a membrane crushed. Keeping a fifth of each triangle's area, it stays whole.
 #[test]
 fn at_eight_substeps_the_sheet_crosses_itself_unless_its_triangles_keep_a_least_area() {
-    let (bad, most) = count("hanging-sheet", &sheet(8, 1, 0.0), 30);
-    eprintln!("10,000-particle sheet, 8 × 1, no least area: {bad} of 30 frames with intersections (at most {most})");
-    assert!(bad > 0, "expected a triangle turned over by frame 30");
-    let (bad, most) = count("hanging-sheet", &sheet(8, 1, 0.2), 300);
-    eprintln!("10,000-particle sheet, 8 × 1, least area 0.2: {bad} of 300 frames with intersections (at most {most})");
-    assert_eq!(bad, 0, "{bad} frames intersect (up to {most} triangle pairs)");
+    assert_crosses("10,000-particle sheet, 8 × 1, no least area", "hanging-sheet", &sheet(8, 1, 0.0), 30);
+    assert_whole("10,000-particle sheet, 8 × 1, least area 0.2", "hanging-sheet", &sheet(8, 1, 0.2), 300);
 }
 
 /// The pile's 4 substeps × 2 sweeps do not keep it on the sheet: its middle falls over an edge a
 /// substep as it folds, and goes through (frame 21, measured).
 #[test]
 fn the_sheet_at_the_piles_substeps_goes_through_itself() {
-    let (bad, most) = count("hanging-sheet", &sheet(4, 2, 0.0), 30);
-    eprintln!("10,000-particle sheet, 4 substeps × 2 sweeps: {bad} of 30 frames with intersections (at most {most})");
-    assert!(bad > 0, "expected the fold to go through at 4 substeps");
+    assert_crosses("10,000-particle sheet, 4 × 2", "hanging-sheet", &sheet(4, 2, 0.0), 30);
 }
 
 #[test]
@@ -156,20 +160,14 @@ fn the_checker_sees_a_crossing_and_not_a_near_miss() {
 #[test]
 fn the_pile_tipped_otherwise_never_intersects_itself() {
     for tip in ["83.9", "84.04", "84.1"] {
-        let (bad, most) = count("pile", &[format!("placement.rotate_deg=[{tip},0.0,0.0]")], 600);
-        eprintln!("pile tipped {tip}°: {bad} of 600 frames with intersections (at most {most} pairs)");
-        assert_eq!(bad, 0, "tipped {tip}°: {bad} frames intersect (up to {most} triangle pairs)");
+        assert_whole(&format!("pile tipped {tip}°"), "pile", &[format!("placement.rotate_deg=[{tip},0.0,0.0]")], 600);
     }
 }
 
 #[test]
 fn a_folding_pile_never_intersects_itself_and_does_without_self_collision() {
-    let (bad, most) = pile(true, 600);
-    eprintln!("self-collision on: {bad} of 600 frames with intersections (at most {most} pairs)");
-    assert_eq!(bad, 0, "{bad} frames intersect (up to {most} triangle pairs)");
-    let (bad, most) = pile(false, 600);
-    eprintln!("self-collision off: {bad} of 600 frames with intersections (at most {most} pairs)");
-    assert!(bad > 0, "the negative control should intersect");
+    assert_whole("pile, self-collision on", "pile", &pile(true), 600);
+    assert_crosses("pile, self-collision off", "pile", &pile(false), 600);
 }
 
 #[test]

@@ -546,14 +546,14 @@ mod tests {
         let x = [DVec3::ZERO, DVec3::X, DVec3::new(0.5, 0.0, 0.1), DVec3::Z, DVec3::Z + DVec3::X, DVec3::Z + DVec3::Y];
         let mut p = [DVec3::ZERO, DVec3::X, DVec3::new(0.4, 0.0, -0.05), x[3], x[4], x[5]];
         let w = [1.0; 6];
-        let start: Vec<DVec3> = p.to_vec();
+        let predicted: Vec<DVec3> = p.to_vec();
         least_area(&triangles, &x, &mut p, &w, &double_areas, 0.2);
         let axis = (x[1] - x[0]).cross(x[2] - x[0]).normalize();
         let (c, _) = constraints::area_along([p[0], p[1], p[2]], axis);
-        let before = constraints::area_along([start[0], start[1], start[2]], axis).0;
+        let before = constraints::area_along([predicted[0], predicted[1], predicted[2]], axis).0;
         assert!(before < 0.0 && (c - 0.2).abs() < 0.01, "twice the area along the start normal {before} → {c}");
         let centre = |q: &[DVec3]| (q[0] + q[1] + q[2]) / 3.0;
-        assert!((centre(&p) - centre(&start)).length() < 1e-15);
+        assert!((centre(&p) - centre(&predicted)).length() < 1e-15);
         // The second triangle starts with its whole area: not looked at, even when predicted flat.
         let mut flat = p;
         flat[5] = DVec3::Z + DVec3::X * 0.5;
