@@ -1,21 +1,20 @@
 //! Failures of the command line: each is one clear line on stderr (naming the file, argument or key at
 //! fault, once), nothing on stdout, and a non-zero exit code — never a panic or an abort.
 
-use std::path::PathBuf;
+use std::path::Path;
 use std::process::{Command, Output};
 use std::time::Duration;
 
 fn shellwarp() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_shellwarp"));
-    // Modal analyses must not read or pollute the user's cache.
-    c.env("SHELLWARP_CACHE_DIR", scratch("cache"));
+    // Modal analyses must not read or pollute the user's cache: theirs is in the build's scratch.
+    c.env("SHELLWARP_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli-errors-cache"));
     c
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("shellwarp-cli-errors-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// An empty directory of the test's own, removed when it is dropped.
+fn scratch(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("shellwarp-cli-errors-{name}-")).tempdir().unwrap()
 }
 
 /// Assert `out` is a clean failure whose single stderr line contains every string of `expected`, and return it.
@@ -62,7 +61,7 @@ fn scene_and_override_errors_name_what_is_wrong() {
 #[test]
 fn a_mesh_error_is_printed_once() {
     let dir = scratch("obj-scene");
-    let scene = dir.join("scene.toml");
+    let scene = dir.path().join("scene.toml");
     std::fs::write(&scene, "name = \"s\"\n[mesh.obj]\npath = \"gone.obj\"\n[solver]\nmethod = \"rigid\"\n").unwrap();
     let err =
         one_line_failure("missing OBJ", &run(&["sim", "-s", scene.to_str().unwrap()]), &["gone.obj: file not found"]);
@@ -72,7 +71,7 @@ fn a_mesh_error_is_printed_once() {
 #[test]
 fn unwritable_outputs_name_the_path_once() {
     let dir = scratch("outputs");
-    let png = dir.join("no-such-dir/x.png");
+    let png = dir.path().join("no-such-dir/x.png");
     let out = run(&[
         "render",
         "-s",
@@ -88,7 +87,7 @@ fn unwritable_outputs_name_the_path_once() {
     ]);
     let err = one_line_failure("render --out", &out, &["cannot write PNG"]);
     assert_eq!(err.matches("x.png").count(), 1, "{err}");
-    let obj = dir.join("no-such-dir/x.obj");
+    let obj = dir.path().join("no-such-dir/x.obj");
     let out = run(&["sim", "-s", "cantilever", "-m", "rigid", "--steps", "1", "--obj", obj.to_str().unwrap()]);
     let err = one_line_failure("sim --obj", &out, &["cannot write"]);
     assert_eq!(err.matches("x.obj").count(), 1, "{err}");
@@ -105,7 +104,8 @@ fn render_sizes_beyond_the_gpu_or_memory_are_clear_errors() {
     one_line_failure("40000x10", &out, &["invalid render size 40000x10: this GPU allows at most"]);
     // Under a 1.5 GB address-space limit an 8192² picture (with 4× MSAA) cannot be allocated: wgpu's
     // out-of-memory error must come back as one line, not a panic. (Enough memory would be a success.)
-    let png = scratch("oom").join("big.png");
+    let dir = scratch("oom");
+    let png = dir.path().join("big.png");
     let script = format!(
         "ulimit -v 1500000 && exec '{}' render -s cantilever -m rigid --frames 0 --size 8192x8192 --out '{}'",
         env!("CARGO_BIN_EXE_shellwarp"),

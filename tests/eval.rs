@@ -36,7 +36,8 @@ fn run_ok(c: &mut Command) -> String {
 fn report() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = std::env::temp_dir().join(format!("shellwarp-eval-{}", std::process::id()));
+        // In the build's scratch (a static is never dropped), replaced at each run.
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("eval-report");
         let _ = std::fs::remove_dir_all(&dir);
         run_ok(shellwarp().args(["eval", "all", "--quick", "--jobs", "2", "--out"]).arg(&dir));
         dir

@@ -17,11 +17,11 @@ use shellwarp::solver::modal::method::{ModalSolver, Variant};
 use shellwarp::solver::{Drag, DragKind, DragSet, Solver};
 use twist_common::{RAMP, helicoid_area_change, twist};
 
-/// An empty cache directory of this test's own.
-fn fresh_cache(name: &str) -> Cache {
-    let dir = std::env::temp_dir().join(format!("shellwarp-modal-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    Cache::at(dir)
+/// An empty cache directory of this test's own, and the guard that removes it when dropped.
+fn fresh_cache(name: &str) -> (tempfile::TempDir, Cache) {
+    let dir = tempfile::Builder::new().prefix(&format!("shellwarp-modal-test-{name}-")).tempdir().unwrap();
+    let cache = Cache::at(dir.path().join("cache"));
+    (dir, cache)
 }
 
 #[test]
@@ -31,7 +31,7 @@ fn mwts_twists_a_beam_smoothly_by_90_180_and_360_degrees_at_every_step() {
     let tip = segments[0] * (segments[1] + 1) + segments[1] / 2;
     for degrees in [90.0f64, 180.0, 360.0] {
         let run = |warp: bool| {
-            let cache = fresh_cache(&format!("twist-{degrees}-{warp}"));
+            let (_dir, cache) = fresh_cache(&format!("twist-{degrees}-{warp}"));
             let variant = if warp { Variant::Mwts } else { Variant::Lma };
             twist(&mut ModalSolver::with_cache(&setup, variant, cache).unwrap(), &setup, tip, degrees)
         };
@@ -181,7 +181,8 @@ fn unit(m: usize, j: usize) -> Vec<f64> {
 #[test]
 fn changing_the_mode_count_recomputes_in_the_background_and_carries_the_state_over() {
     let setup = scene::load("cantilever", &["solver.modes=6".into()]).unwrap();
-    let mut s = ModalSolver::with_cache(&setup, Variant::Mwts, fresh_cache("mode-count")).unwrap();
+    let (_dir, cache) = fresh_cache("mode-count");
+    let mut s = ModalSolver::with_cache(&setup, Variant::Mwts, cache).unwrap();
     assert_eq!(s.analysis().basis.modes(), 6);
     for _ in 0..20 {
         s.step().unwrap();
@@ -223,7 +224,8 @@ fn changing_the_mode_count_recomputes_in_the_background_and_carries_the_state_ov
 fn an_unreachable_drag_stays_calm_under_the_default_damping() {
     // Pulling the tip sideways and toward the clamp asks the bending modes for what they cannot do.
     let setup = scene::load("cantilever", &[]).unwrap();
-    let mut s = ModalSolver::with_cache(&setup, Variant::Mwts, fresh_cache("unreachable")).unwrap();
+    let (_dir, cache) = fresh_cache("unreachable");
+    let mut s = ModalSolver::with_cache(&setup, Variant::Mwts, cache).unwrap();
     let tip = 204;
     let target = DVec3::new(0.35, 0.2, 0.15);
     s.drags_mut().add(Drag { vertex: tip, kind: DragKind::Position(target) }).unwrap();
