@@ -50,12 +50,14 @@ impl Near<'_> {
     /// Whether vertex `v`'s fan is flat, judged the first time it is asked after the search (most fans
     /// lie within patches the hierarchy skips, and are never asked).
     fn fan_flat(&self, v: usize) -> bool {
-        let known = &self.flat_fans[v];
-        known.get().unwrap_or_else(|| {
-            let flat = self.fans.flat_at(v, self.normals, self.tilt, self.flat_reach);
-            known.set(Some(flat));
-            flat
-        })
+        self.flat_fans[v].get().unwrap_or_else(|| self.judge_fan(v))
+    }
+
+    /// Judge whether vertex `v`'s fan is flat with the normals as they are now, and keep the verdict.
+    pub fn judge_fan(&self, v: usize) -> bool {
+        let flat = self.fans.flat_at(v, self.normals, self.tilt, self.flat_reach);
+        self.flat_fans[v].set(Some(flat));
+        flat
     }
 
     /// Triangle `t`'s box grown by half its reach (the thickness and its side's margin): two that

@@ -275,8 +275,6 @@ impl SelfCollision {
         let mean = mean_position(x);
         self.anchors.clear();
         self.anchors.extend(x.iter().map(|q| *q - mean));
-        let flat_reach = thickness + self.least_margin;
-        let tilt = Tilt::new(TILT);
         self.normals.clear();
         self.normals.extend(triangles.iter().map(|&t| unit_normal(t, x)));
         self.normals.iter().enumerate().for_each(|(t, &n)| self.watched.set(t, n));
@@ -287,10 +285,10 @@ impl SelfCollision {
         let (near, normals) = (self.near(triangles, thickness), &self.normals);
         tree.refit(|t| {
             let (lo, hi) = near.bounds(t);
-            Leaf { lo, hi, normal: normals[t], reach: flat_reach }
+            Leaf { lo, hi, normal: normals[t], reach: near.flat_reach }
         });
         let (mut vertices, mut edges) = (Vec::new(), Vec::new());
-        tree.overlapping_pairs(tilt, |a, b| near.pairs(a, b, &mut vertices, &mut edges));
+        tree.overlapping_pairs(near.tilt, |a, b| near.pairs(a, b, &mut vertices, &mut edges));
         (self.whole, self.tree) = (tree.all_flat(), tree);
         self.list(vertices, edges, false);
     }
@@ -300,7 +298,6 @@ impl SelfCollision {
     /// search: the pairs a search would list now, the boxes as they are.
     fn renew(&mut self, x: &[DVec3], triangles: &[[usize; 3]], thickness: f64) {
         self.renewals += 1;
-        let (flat_reach, tilt) = (thickness + self.least_margin, Tilt::new(TILT));
         for &t in &self.turned {
             let n = unit_normal(triangles[t as usize], x);
             self.normals[t as usize] = n;
@@ -310,18 +307,17 @@ impl SelfCollision {
         let mut corners: Vec<usize> = self.turned.iter().flat_map(|&t| triangles[t as usize]).collect();
         corners.sort_unstable();
         corners.dedup();
-        let mut opened = Vec::new();
-        for v in corners {
-            let flat = self.fans.flat_at(v, &self.normals, tilt, flat_reach);
-            if self.flat_fans[v].get() == Some(true) && !flat {
-                opened.push(v);
-            }
-            self.flat_fans[v].set(Some(flat));
-        }
-        let (mut vertices, mut edges) = (Vec::new(), Vec::new());
         let mut tree = std::mem::take(&mut self.tree);
         let near = self.near(triangles, thickness);
-        tree.renewed_pairs(tilt, |a, b| near.pairs(a, b, &mut vertices, &mut edges));
+        let mut opened = Vec::new();
+        for v in corners {
+            let was_flat = self.flat_fans[v].get() == Some(true);
+            if !near.judge_fan(v) && was_flat {
+                opened.push(v);
+            }
+        }
+        let (mut vertices, mut edges) = (Vec::new(), Vec::new());
+        tree.renewed_pairs(near.tilt, |a, b| near.pairs(a, b, &mut vertices, &mut edges));
         for v in opened {
             let fan = self.fans.of(v);
             for (k, &a) in fan.iter().enumerate() {
