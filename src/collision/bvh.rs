@@ -144,6 +144,15 @@ struct Node {
     end: u32,
 }
 
+/// What a refit finds of a node: its box, normal cone and largest reach.
+#[derive(Debug, Clone, Copy)]
+struct Fit {
+    lo: DVec3,
+    hi: DVec3,
+    cone: Cone,
+    reach: f64,
+}
+
 /// What the query needs of a triangle at present.
 #[derive(Debug, Clone, Copy)]
 pub struct Leaf {
@@ -334,17 +343,28 @@ impl TriangleTree {
 
     /// Refit every node from its triangles as they are now (`leaf(triangle)`).
     pub fn refit(&mut self, leaf: impl Fn(usize) -> Leaf) {
+        // From the last node back, so that children come before their parents. A node's first child
+        // is the node after it, refitted just before: it is carried over in registers, as read back
+        // from memory just after being written it waited for the stores to land.
+        let mut last = Fit { lo: DVec3::ZERO, hi: DVec3::ZERO, cone: Cone::ALL, reach: 0.0 };
         for k in (0..self.nodes.len()).rev() {
             let [l, r] = self.nodes[k].children;
-            let (lo, hi, cone, reach) = if l == LEAF {
+            let fit = if l == LEAF {
                 let f = leaf(self.nodes[k].triangle as usize);
-                (f.lo, f.hi, Cone::of(f.normal), f.reach)
+                Fit { lo: f.lo, hi: f.hi, cone: Cone::of(f.normal), reach: f.reach }
             } else {
-                let (a, b) = (&self.nodes[l as usize], &self.nodes[r as usize]);
-                (a.lo.min(b.lo), a.hi.max(b.hi), Cone::merge(a.cone, b.cone), a.reach.max(b.reach))
+                debug_assert_eq!(l as usize, k + 1, "a first child follows its parent");
+                let b = &self.nodes[r as usize];
+                Fit {
+                    lo: last.lo.min(b.lo),
+                    hi: last.hi.max(b.hi),
+                    cone: Cone::merge(last.cone, b.cone),
+                    reach: last.reach.max(b.reach),
+                }
             };
             let n = &mut self.nodes[k];
-            (n.lo, n.hi, n.cone, n.reach) = (lo, hi, cone, reach);
+            (n.lo, n.hi, n.cone, n.reach) = (fit.lo, fit.hi, fit.cone, fit.reach);
+            last = fit;
         }
         self.turned.iter().for_each(|&k| self.is_turned[k as usize] = false);
         self.turned.clear();

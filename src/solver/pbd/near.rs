@@ -62,6 +62,7 @@ impl Near<'_> {
 
     /// Triangle `t`'s box grown by half its reach (the thickness and its side's margin): two that
     /// overlap may hold a pair within reach, and no pair within reach lies in two that do not.
+    #[inline]
     pub fn bounds(&self, t: usize) -> (DVec3, DVec3) {
         let reach = self.thickness + self.side(&self.triangles[t]);
         let (lo, hi) = bounds(&self.triangles[t].map(|i| self.x[i]));
