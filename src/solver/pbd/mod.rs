@@ -29,10 +29,12 @@ mod bodies;
 mod contact;
 #[cfg(target_arch = "x86_64")]
 mod eight;
+mod least;
 mod model;
 mod near;
 mod params;
 mod project;
+mod scan;
 mod self_collision;
 mod self_contact;
 mod turn;
@@ -105,16 +107,20 @@ pub struct Pbd {
     mu: (f64, f64),
     thickness: f64,
     k_pressure: f64,
-    /// The least area a triangle keeps, / its rest area (0: none), and twice each rest area.
+    /// The least area a triangle keeps, / its rest area (0: none), twice each rest area, and the
+    /// triangles near it at the substep's start (scratch).
     least_area: f64,
     double_areas: Vec<f64>,
+    areas: least::Areas,
+    shrunk: Vec<u32>,
     stiffness: (f64, f64),
     compliance: (Option<f64>, Option<f64>),
     k_s: f64,
     k_b: f64,
     // Scratch.
     rows: Rows,
-    /// The substep's start as rows, for self-collision's test of its flat patches.
+    /// The substep's start as rows, for self-collision's test of its flat patches and the least
+    /// area's of the triangles near it.
     start_rows: Rows,
     multipliers: Multipliers,
     gradient: Vec<DVec3>,
@@ -178,6 +184,8 @@ impl Pbd {
             k_pressure: check("k_pressure", m.k_pressure.unwrap_or(0.0))?,
             least_area: check("least_area", s.least_area.unwrap_or(0.0))?,
             double_areas: model.triangles.iter().map(|t| 2.0 * crate::mesh::area_of(&model.rest, t)).collect(),
+            areas: least::Areas::default(),
+            shrunk: Vec::new(),
             stiffness: (check("pbd_stretch", m.pbd_stretch)?, check("pbd_bend", m.pbd_bend)?),
             compliance: (m.compliance_stretch, m.compliance_bend),
             k_s: check("k_s", m.k_s)?,
@@ -194,6 +202,7 @@ impl Pbd {
             energy_limit: 1e6 * (total_mass * setup.gravity().length().max(9.81) * 10.0 * size).max(1e-3),
             model,
         };
+        solver.areas = least::Areas::new(&solver.model.triangles, &solver.double_areas);
         solver.update_masses();
         Ok(solver)
     }
@@ -274,6 +283,12 @@ impl Pbd {
         for b in &mut self.bodies {
             b.predict(t, h, self.gravity);
         }
+        if self.least_area > 0.0 || self.self_collision.is_some() {
+            self.start_rows.fill(&self.x, &self.w);
+        }
+        if self.least_area > 0.0 {
+            self.areas.under(self.start_rows.indexed(), 2.0 * self.least_area, &mut self.shrunk);
+        }
         self.rows.fill(&self.p, &self.w);
         self.detect(h);
         let (alpha_stretch, alpha_bend) = self.compliances();
@@ -313,6 +328,7 @@ impl Pbd {
         if self.least_area > 0.0 {
             project::least_area(
                 &self.model.triangles,
+                &self.shrunk,
                 &self.x,
                 &mut self.p,
                 &self.w,
@@ -390,7 +406,6 @@ impl Pbd {
             }
         }
         if let Some(sc) = &mut self.self_collision {
-            self.start_rows.fill(&self.x, &self.w);
             let rows = [self.start_rows.indexed(), self.rows.indexed()];
             sc.find([&self.x, &self.p], rows, &self.model.triangles, self.thickness);
         }

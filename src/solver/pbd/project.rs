@@ -338,9 +338,19 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> crate::linalg::isa:
 /// `N·n̂₀ − least·2A₀ ≥ 0` ([`constraints::area_along`]). Edges alone let a triangle squeezed in its
 /// plane collapse and turn over, laying its neighbours over each other (the hanging sheet's clips do
 /// that at 8–12 substeps of one sweep). Only triangles that start the substep within twice the least
-/// area are looked at: the others would have to lose half their area in one substep.
-pub fn least_area(triangles: &[[usize; 3]], x: &[DVec3], p: &mut [DVec3], w: &[f64], double_areas: &[f64], least: f64) {
-    for (t, &a0) in triangles.iter().zip(double_areas) {
+/// area are looked at: the others would have to lose half their area in one substep. They are among
+/// `listed` ([`super::least::Areas::under`], which may list a few more).
+pub fn least_area(
+    triangles: &[[usize; 3]],
+    listed: &[u32],
+    x: &[DVec3],
+    p: &mut [DVec3],
+    w: &[f64],
+    double_areas: &[f64],
+    least: f64,
+) {
+    for &t in listed {
+        let (t, a0) = (triangles[t as usize], double_areas[t as usize]);
         let start = (x[t[1]] - x[t[0]]).cross(x[t[2]] - x[t[0]]);
         if start.length_squared() >= (2.0 * least * a0).powi(2) {
             continue;
@@ -547,7 +557,7 @@ mod tests {
         let mut p = [DVec3::ZERO, DVec3::X, DVec3::new(0.4, 0.0, -0.05), x[3], x[4], x[5]];
         let w = [1.0; 6];
         let predicted: Vec<DVec3> = p.to_vec();
-        least_area(&triangles, &x, &mut p, &w, &double_areas, 0.2);
+        least_area(&triangles, &[0, 1], &x, &mut p, &w, &double_areas, 0.2);
         let axis = (x[1] - x[0]).cross(x[2] - x[0]).normalize();
         let (c, _) = constraints::area_along([p[0], p[1], p[2]], axis);
         let before = constraints::area_along([predicted[0], predicted[1], predicted[2]], axis).0;
@@ -558,7 +568,7 @@ mod tests {
         let mut flat = p;
         flat[5] = DVec3::Z + DVec3::X * 0.5;
         let before = flat;
-        least_area(&triangles, &x, &mut flat, &w, &double_areas, 0.2);
+        least_area(&triangles, &[0, 1], &x, &mut flat, &w, &double_areas, 0.2);
         assert_eq!(flat[3..], before[3..]);
     }
 }

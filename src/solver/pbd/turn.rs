@@ -2,19 +2,17 @@
 //! (self-collision's test that its flat patches are still flat, [`super::self_collision`]).
 //!
 //! The test runs every substep over every triangle of the cloth, at the substep's start and its
-//! predicted end, so it takes eight triangles at a time where the CPU has AVX2, in single precision,
-//! at both positions at once, from the rows the sweeps read ([`super::batch::Rows`]: positions
-//! rounded once, relative to the first particle), each batch's corners loaded as the sweeps load
-//! theirs ([`super::eight`]). Rounding cannot pass a triangle that
-//! has turned too far: the test is for an angle a hundredth of a radian (0.57°) under the limit, and a
-//! triangle passes only if the rounding of its normal (bounded from its corners' distance from the
-//! rows' origin and its edges) is under half of that. A CPU without AVX2 runs the same arithmetic one
-//! triangle at a time.
+//! predicted end, eight triangles at a time in single precision, at both positions at once
+//! ([`super::scan`]). Rounding cannot pass a triangle that has turned too far: the test is for an
+//! angle a hundredth of a radian (0.57°) under the limit, and a triangle passes only if the rounding
+//! of its normal (bounded from its corners' distance from the rows' origin and its edges,
+//! [`scan::rounded_normal`]) is under half of that.
 
 use glam::DVec3;
 
 use super::batch::{Batch, Batches, CONSTANTS, Indexed, LANES, Packable, Row};
-use crate::linalg::real::{self, Lanes32, Real, V3};
+use super::scan;
+use crate::linalg::real::{self, Real, V3};
 
 /// How much under the limit the single-precision test holds its triangles, radians.
 const SLACK: f64 = 1e-2;
@@ -69,66 +67,26 @@ impl Watch {
 
     /// [`Self::turned`], eight triangles at a time if `fastest` and the CPU has AVX2, else one at a time.
     fn check(&self, rows: [Indexed<&[Row]>; 2], angle: f64, fastest: bool, turned: &mut Vec<u32>) {
-        turned.clear();
         if rows[0].mask != rows[1].mask {
-            turned.extend(self.batches.iter().enumerate().flat_map(|(b, batch)| lanes(b, batch, 0xff)));
+            turned.clear();
+            turned.extend(self.batches.iter().enumerate().flat_map(|(b, batch)| scan::lanes(b, batch, 0xff)));
             return;
         }
-        let test = Test::new(angle);
-        #[cfg(target_arch = "x86_64")]
-        let turned = if fastest {
-            match crate::linalg::isa::eight(Eight { test, batches: &self.batches, rows, turned }) {
-                Ok(()) => return,
-                Err(kernel) => kernel.turned,
-            }
-        } else {
-            turned
-        };
-        let one = |v: f32| Lanes32 { simd: pulp::Scalar::new(), v };
-        for (b, batch) in self.batches.iter().enumerate() {
-            let failed = (0..LANES).filter(|&k| {
-                let normal = [one(batch.constants[0][k]), one(batch.constants[1][k]), one(batch.constants[2][k])];
-                rows.iter().any(|rows| {
-                    let corner = |c: usize| {
-                        let r = rows.rows[batch.ids[c][k] as usize].0;
-                        [one(r[0]), one(r[1]), one(r[2])]
-                    };
-                    let margin = test.margin([corner(0), corner(1), corner(2)], normal).v;
-                    margin <= 0.0 || margin.is_nan()
-                })
-            });
-            let mask = failed.fold(0, |mask, k| mask | 1 << k);
-            turned.extend(lanes(b, batch, mask));
-        }
+        scan::failing(&self.batches, rows, Turn::new(angle), fastest, turned);
     }
 }
 
-/// The triangles of batch `b` at the lanes set in `mask` (those past its count repeat its last).
-fn lanes(b: usize, batch: &Batch<3, 0>, mask: i32) -> impl Iterator<Item = u32> {
-    (0..batch.count).filter(move |&k| mask >> k & 1 != 0).map(move |k| (b * LANES + k) as u32)
-}
-
 /// The test's constants: the cosine of the tested angle (the limit less the slack) and the sine of
-/// half the slack, squared; and the bounds on rounding, with room to spare.
+/// half the slack, squared.
 #[derive(Debug, Clone, Copy)]
-struct Test {
+struct Turn {
     cos2: f64,
     sin2: f64,
-    /// A row's rounding per coordinate, in units of its distance from the origin.
-    position: f64,
-    /// A product's relative rounding.
-    product: f64,
 }
 
-impl Test {
+impl Turn {
     fn new(angle: f64) -> Self {
-        let unit = f64::from(f32::EPSILON);
-        Self {
-            cos2: (angle - SLACK).cos().powi(2),
-            sin2: (0.5 * SLACK).sin().powi(2),
-            position: unit,
-            product: 4.0 * unit,
-        }
+        Self { cos2: (angle - SLACK).cos().powi(2), sin2: (0.5 * SLACK).sin().powi(2) }
     }
 
     /// Positive where a triangle with corners `c` has turned from `normal` by less than the tested
@@ -136,16 +94,8 @@ impl Test {
     #[inline(always)]
     fn margin<N: Real>(&self, c: [V3<N>; 3], normal: V3<N>) -> N {
         let zero = c[0][0].constant(0.0);
-        let (e1, e2) = (real::sub(c[1], c[0]), real::sub(c[2], c[0]));
-        let n = real::cross(e1, e2);
+        let (n, error) = scan::rounded_normal(c);
         let (along, length2) = (real::dot(n, normal), real::dot(n, n));
-        // The normal's rounding. Every corner is within `r = |c₀|₁ + |e₁|₁ + |e₂|₁` of the origin in
-        // each coordinate, so was rounded by at most `r ε/2` there, and each edge is off by at most
-        // `r ε` per coordinate, `√3 r ε < 2 r ε = d` along its length; that moves the normal by at
-        // most `d (|e₁| + |e₂| + d)`, and the cross product's own rounding adds under `4ε |e₁|₁|e₂|₁`.
-        let (l1, l2) = (norm1(e1), norm1(e2));
-        let d = zero.constant(2.0 * self.position) * (norm1(c[0]) + l1 + l2);
-        let error = d * (l1 + l2 + d) + zero.constant(self.product) * l1 * l2;
         let within = along * along - zero.constant(self.cos2) * length2;
         let exact = zero.constant(self.sin2) * length2 - error * error;
         let m = N::select(zero.less(along), within, zero);
@@ -153,52 +103,12 @@ impl Test {
     }
 }
 
-/// `|v|₁`.
-#[inline(always)]
-fn norm1<N: Real>(v: V3<N>) -> N {
-    v[0].abs() + v[1].abs() + v[2].abs()
-}
-
-/// The test eight triangles at a time, as a kernel for [`crate::linalg::isa::eight`].
-#[cfg(target_arch = "x86_64")]
-struct Eight<'a> {
-    test: Test,
-    batches: &'a [Batch<3, 0>],
-    rows: [Indexed<&'a [Row]>; 2],
-    turned: &'a mut Vec<u32>,
-}
-
-#[cfg(target_arch = "x86_64")]
-impl crate::linalg::isa::Eight for Eight<'_> {
-    type Output = ();
-
+impl scan::Test<2> for Turn {
+    /// Positive where the triangle has turned by less than the tested angle at both ends.
     #[inline(always)]
-    fn run(self, simd: pulp::x86::V3) {
-        use pulp::cast;
-        // Loops, not closures: a closure the compiler declines to inline would run without AVX2.
-        let zero = Lanes32 { simd, v: cast(simd.avx._mm256_setzero_ps()) };
-        // Sliced to the mask, so that indices masked by it need no bounds checks.
-        let [start, end] = self.rows;
-        let (start, end) =
-            (Indexed { rows: &start.rows[..=start.mask], ..start }, Indexed { rows: &end.rows[..=end.mask], ..end });
-        for (k, b) in self.batches.iter().enumerate() {
-            let (mut c, mut d, mut normal) = ([[zero; 3]; 3], [[zero; 3]; 3], [zero; 3]);
-            for ((c, d), ids) in c.iter_mut().zip(&mut d).zip(&b.ids) {
-                let [x, y, z, _] = super::eight::gather(simd, start.rows, start.mask, ids);
-                *c = [Lanes32 { simd, v: cast(x) }, Lanes32 { simd, v: cast(y) }, Lanes32 { simd, v: cast(z) }];
-                let [x, y, z, _] = super::eight::gather(simd, end.rows, end.mask, ids);
-                *d = [Lanes32 { simd, v: cast(x) }, Lanes32 { simd, v: cast(y) }, Lanes32 { simd, v: cast(z) }];
-            }
-            for (n, values) in normal.iter_mut().zip(&b.constants) {
-                n.v = cast(*values);
-            }
-            let (m, n) = (self.test.margin(c, normal), self.test.margin(d, normal));
-            let pass = simd.avx._mm256_and_ps(cast(m.constant(0.0).less(m)), cast(n.constant(0.0).less(n)));
-            let passed = simd.avx._mm256_movemask_ps(pass);
-            if passed != 0xff {
-                self.turned.extend(lanes(k, b, !passed & 0xff));
-            }
-        }
+    fn margin<N: Real>(&self, [start, end]: [[V3<N>; 3]; 2], normal: [N; CONSTANTS]) -> N {
+        let m = Turn::margin(self, start, normal);
+        N::select(m.constant(0.0).less(m), Turn::margin(self, end, normal), m)
     }
 }
 
