@@ -104,10 +104,10 @@ impl<T: Test<R>, const R: usize> crate::linalg::isa::Eight for Eight<'_, T, R> {
         let rows = self.rows.map(|r| Indexed { rows: &r.rows[..=r.mask], ..r });
         for (k, b) in self.batches.iter().enumerate() {
             let (mut c, mut constants) = ([[[zero; 3]; 3]; R], [zero; CONSTANTS]);
-            for (c, rows) in c.iter_mut().zip(&rows) {
-                for (c, ids) in c.iter_mut().zip(&b.ids) {
+            for (j, ids) in b.ids.iter().enumerate() {
+                for (c, rows) in c.iter_mut().zip(&rows) {
                     let [x, y, z, _] = super::eight::gather(simd, rows.rows, rows.mask, ids);
-                    *c = [Lanes32 { simd, v: cast(x) }, Lanes32 { simd, v: cast(y) }, Lanes32 { simd, v: cast(z) }];
+                    c[j] = [Lanes32 { simd, v: cast(x) }, Lanes32 { simd, v: cast(y) }, Lanes32 { simd, v: cast(z) }];
                 }
             }
             for (constant, values) in constants.iter_mut().zip(&b.constants) {
