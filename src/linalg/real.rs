@@ -15,9 +15,13 @@ pub trait Real:
 {
     /// The result of a comparison (per lane).
     type Mask: Copy;
-    /// The last term `k` of the arctangent's series ([`crate::energy::constraints::atan2`]) that
-    /// this precision can see: the next, `z²ᵏ⁺³/(2k + 3)` at `|z| ≤ tan(π/16)`, is below its
-    /// roundoff relative to `z` (2⁻⁶⁰ after `k = 11` in double precision, 2⁻²⁶ after `k = 4` in single).
+    /// How many times the arctangent ([`crate::energy::constraints::atan2`]) halves its argument
+    /// after bringing it to `|z| ≤ tan(π/8)`: once in double precision (to `tan(π/16)`), which a
+    /// root and a division buy more cheaply than the series' terms; not in single precision.
+    const ATAN_HALVINGS: usize;
+    /// The last term `k` of the arctangent's series that this precision can see: the next,
+    /// `z²ᵏ⁺³/(2k + 3)` at the largest `|z|`, is below its roundoff relative to `z` (2⁻⁶⁰ after
+    /// `k = 11` at `tan(π/16)` in double precision, 2⁻²⁶ after `k = 8` at `tan(π/8)` in single).
     const ATAN_LAST_TERM: usize;
     /// The constant `c` (in every lane), of the kind of `self`.
     fn constant(self, c: f64) -> Self;
@@ -41,6 +45,7 @@ pub trait Real:
 
 impl Real for f64 {
     type Mask = bool;
+    const ATAN_HALVINGS: usize = 1;
     const ATAN_LAST_TERM: usize = 11;
     #[inline(always)]
     fn constant(self, c: f64) -> Self {
@@ -120,7 +125,8 @@ impl<S: Simd> Neg for Lanes32<S> {
 
 impl<S: Simd> Real for Lanes32<S> {
     type Mask = S::m32s;
-    const ATAN_LAST_TERM: usize = 4;
+    const ATAN_HALVINGS: usize = 0;
+    const ATAN_LAST_TERM: usize = 8;
     #[inline(always)]
     fn mul_add(self, b: Self, c: Self) -> Self {
         Self { simd: self.simd, v: self.simd.mul_add_f32s(self.v, b.v, c.v) }
