@@ -195,13 +195,17 @@ impl SelfCollision {
         if searched {
             self.watched.turned(rows, TILT, &mut self.turned);
         }
-        let stale = !searched || ((!self.whole || !self.turned.is_empty()) && self.drifted(x, p));
+        // The cloth's mean positions at the substep's start and predicted end, taken once if needed.
+        let means = std::cell::OnceCell::new();
+        let means = || *means.get_or_init(|| [mean_position(x), mean_position(p)]);
+        let stale = !searched || ((!self.whole || !self.turned.is_empty()) && self.drifted([x, p], means()));
         self.since += 1;
         if stale {
-            let (least, room, t) = (self.least_margin, 2.0 * self.stretch, mean_position(p) - mean_position(x));
+            let [cx, cp] = means();
+            let (least, room, t) = (self.least_margin, 2.0 * self.stretch, cp - cx);
             self.margins.clear();
             self.margins.extend(p.iter().zip(x).map(|(a, b)| least + room * (*a - *b - t).length()));
-            self.search(x, triangles, thickness);
+            self.search(x, cx, triangles, thickness);
             // Searches that come soon and list few pairs: more room for the next; many pairs: less.
             let listed = (self.pairs.len() + self.edge_pairs.len()) as f64;
             if listed > FEW_PAIRS * x.len() as f64 {
@@ -270,14 +274,13 @@ impl SelfCollision {
 
     /// List, at `x`, every pair closer than the thickness plus half the sum of its two sides' margins
     /// (a side's margin: the largest of its vertices'); pairs found again keep their sides.
-    fn search(&mut self, x: &[DVec3], triangles: &[[usize; 3]], thickness: f64) {
+    fn search(&mut self, x: &[DVec3], mean: DVec3, triangles: &[[usize; 3]], thickness: f64) {
         self.searches += 1;
-        let mean = mean_position(x);
         self.anchors.clear();
         self.anchors.extend(x.iter().map(|q| *q - mean));
         self.normals.clear();
         self.normals.extend(triangles.iter().map(|&t| unit_normal(t, x)));
-        self.normals.iter().enumerate().for_each(|(t, &n)| self.watched.set(t, n));
+        self.watched.set_all(&self.normals);
         self.flat_fans.clear();
         self.flat_fans.resize(x.len(), Cell::new(None));
         // The hierarchy is taken out while the pairs' judge borrows the rest.
@@ -394,9 +397,8 @@ impl SelfCollision {
     }
 
     /// Whether a vertex has moved from its anchor at `x` or `p`, relative to the cloth's mean
-    /// position, by half its margin or more.
-    fn drifted(&self, x: &[DVec3], p: &[DVec3]) -> bool {
-        let (cx, cp) = (mean_position(x), mean_position(p));
+    /// position there (`cx`, `cp`), by half its margin or more.
+    fn drifted(&self, [x, p]: [&[DVec3]; 2], [cx, cp]: [DVec3; 2]) -> bool {
         (0..x.len()).any(|i| {
             let a = self.anchors[i];
             let drift2 = (x[i] - cx - a).length_squared().max((p[i] - cp - a).length_squared());

@@ -57,6 +57,15 @@ impl Watch {
         }
     }
 
+    /// Take every triangle's unit normal now (`normals`, in the triangles' order).
+    pub fn set_all(&mut self, normals: &[DVec3]) {
+        for (batch, normals) in self.batches.iter_mut().zip(normals.chunks(LANES)) {
+            for (k, n) in (0..LANES).map(|k| (k, normals[k.min(normals.len() - 1)].to_array())) {
+                (0..3).for_each(|c| batch.constants[c][k] = n[c] as f32);
+            }
+        }
+    }
+
     /// Into `turned` (cleared first), in order, the watched triangles that have turned at the
     /// positions of either of `rows` by `angle` or more since their normals were taken (or have no
     /// normal there); maybe also some that turned by a little less, never one that turned by less
@@ -184,6 +193,20 @@ mod tests {
                 "a degenerate triangle has turned"
             );
         }
+    }
+
+    /// Taking every normal at once packs the batches as taking them one by one does, the lanes past a
+    /// batch's count included.
+    #[test]
+    fn every_normal_taken_at_once_is_each_taken_alone() {
+        let triangles: Vec<([u32; 3], DVec3)> = (0..13u32).map(|k| ([3 * k, 3 * k + 1, 3 * k + 2], DVec3::Z)).collect();
+        let normals: Vec<DVec3> =
+            (0..13).map(|k| DVec3::new((0.3 * k as f64).sin(), 0.2, (0.3 * k as f64).cos()).normalize()).collect();
+        let (mut alone, mut at_once) = (Watch::new(triangles.clone()), Watch::new(triangles));
+        normals.iter().enumerate().for_each(|(t, &n)| alone.set(t, n));
+        at_once.set_all(&normals);
+        assert_eq!(alone.batches, at_once.batches);
+        assert_ne!(alone.batches, Watch::new((0..13u32).map(|k| ([3 * k, 3 * k + 1, 3 * k + 2], DVec3::Z))).batches);
     }
 
     /// A cloth whose triangles are small for its distance from the first vertex (rounding over half
