@@ -28,7 +28,7 @@ impl Packable<3, 0> for Rest {
 }
 
 /// The cloth's triangles with twice their rest areas, eight to a batch in their order.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct Areas {
     batches: Vec<Batch<3, 0>>,
 }

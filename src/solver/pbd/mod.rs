@@ -155,6 +155,8 @@ impl Pbd {
             let (lo, hi) = setup.mesh.bounding_box();
             (hi - lo).length().max(1e-3)
         };
+        let double_areas: Vec<f64> =
+            model.triangles.iter().map(|t| 2.0 * crate::mesh::area_of(&model.rest, t)).collect();
         let total_mass: f64 =
             model.areas.iter().sum::<f64>() * m.density + setup.bodies.iter().filter_map(|b| b.mass).sum::<f64>();
         let mut solver = Self {
@@ -183,8 +185,8 @@ impl Pbd {
             thickness,
             k_pressure: check("k_pressure", m.k_pressure.unwrap_or(0.0))?,
             least_area: check("least_area", s.least_area.unwrap_or(0.0))?,
-            double_areas: model.triangles.iter().map(|t| 2.0 * crate::mesh::area_of(&model.rest, t)).collect(),
-            areas: least::Areas::default(),
+            areas: least::Areas::new(&model.triangles, &double_areas),
+            double_areas,
             shrunk: Vec::new(),
             stiffness: (check("pbd_stretch", m.pbd_stretch)?, check("pbd_bend", m.pbd_bend)?),
             compliance: (m.compliance_stretch, m.compliance_bend),
@@ -202,7 +204,6 @@ impl Pbd {
             energy_limit: 1e6 * (total_mass * setup.gravity().length().max(9.81) * 10.0 * size).max(1e-3),
             model,
         };
-        solver.areas = least::Areas::new(&solver.model.triangles, &solver.double_areas);
         solver.update_masses();
         Ok(solver)
     }

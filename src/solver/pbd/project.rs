@@ -338,8 +338,11 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> crate::linalg::isa:
 /// `N·n̂₀ − least·2A₀ ≥ 0` ([`constraints::area_along`]). Edges alone let a triangle squeezed in its
 /// plane collapse and turn over, laying its neighbours over each other (the hanging sheet's clips do
 /// that at 8–12 substeps of one sweep). Only triangles that start the substep within twice the least
-/// area are looked at: the others would have to lose half their area in one substep. They are among
-/// `listed` ([`super::least::Areas::under`], which may list a few more).
+/// area are looked at (they are among `listed`, [`super::least::Areas::under`], which may list a few
+/// more): another would have to lose half its area within the substep to end it under the least, and
+/// would then be looked at from the next substep's start, before it could turn over. (Beside the
+/// hanging sheet's clips at 8 × 1 some triangles do lose half their area within a substep: a list made
+/// for two substeps at once let that sheet cross itself, `BENCHMARKS.md`.)
 pub fn least_area(
     triangles: &[[usize; 3]],
     listed: &[u32],
