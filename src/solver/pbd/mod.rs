@@ -107,8 +107,8 @@ pub struct Pbd {
     mu: (f64, f64),
     thickness: f64,
     k_pressure: f64,
-    /// The least area a triangle keeps, / its rest area (0: none), twice each rest area, and the
-    /// triangles near it at the substep's start (scratch).
+    /// The least area a triangle keeps, / its rest area (0: none); twice each rest area, also packed
+    /// for the scan of which triangles start a substep near the least; and those triangles (scratch).
     least_area: f64,
     double_areas: Vec<f64>,
     areas: least::Areas,
