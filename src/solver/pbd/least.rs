@@ -6,28 +6,12 @@
 //! least, and the projection tests the listed ones again in double precision. (Tested one at a time
 //! in double precision, it took 7% of the 10,000-particle hanging sheet's frame.)
 
-use super::batch::{Batch, Batches, CONSTANTS, Indexed, Packable, Row};
+use super::batch::{Batch, CONSTANTS, Indexed, Row};
 use super::scan;
 use crate::linalg::real::{self, Real, V3};
 
-/// A triangle: its corners and twice its rest area, packed as a lane of the sweeps' batches are (the
-/// corners as its particles, the area as its first constant).
-#[derive(Debug, Clone, Copy)]
-struct Rest([u32; 3], f64);
-
-impl Packable<3, 0> for Rest {
-    fn particles(&self) -> [usize; 3] {
-        self.0.map(|i| i as usize)
-    }
-    fn constants(&self) -> [f64; CONSTANTS] {
-        [self.1, 0.0, 0.0]
-    }
-    fn factors(&self) -> [f64; 0] {
-        []
-    }
-}
-
-/// The cloth's triangles with twice their rest areas, eight to a batch in their order.
+/// The cloth's triangles with twice their rest areas (each its first constant), eight to a batch in
+/// their order.
 #[derive(Debug, Clone)]
 pub struct Areas {
     batches: Vec<Batch<3, 0>>,
@@ -36,8 +20,9 @@ pub struct Areas {
 impl Areas {
     /// These triangles, with twice their rest areas.
     pub fn new(triangles: &[[usize; 3]], double_areas: &[f64]) -> Self {
-        let all: Vec<Rest> = triangles.iter().zip(double_areas).map(|(t, &a)| Rest(t.map(|i| i as u32), a)).collect();
-        Self { batches: Batches::new(&all, &[0, all.len()]).batches }
+        Self {
+            batches: scan::pack(triangles.iter().zip(double_areas).map(|(t, &a)| (t.map(|i| i as u32), [a, 0.0, 0.0]))),
+        }
     }
 
     /// Into `found` (cleared first), in order, every triangle whose area at `rows` is under `twice`

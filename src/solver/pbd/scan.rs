@@ -5,7 +5,7 @@
 //! corners loaded as the sweeps load theirs ([`super::eight`]). A CPU without AVX2 runs the same
 //! arithmetic one triangle at a time.
 
-use super::batch::{Batch, CONSTANTS, Indexed, LANES, Row};
+use super::batch::{Batch, Batches, CONSTANTS, Indexed, LANES, Packable, Row};
 use crate::linalg::real::{self, Lanes32, Real, V3};
 
 /// A test of a triangle at `R` sets of positions.
@@ -19,6 +19,28 @@ pub trait Test<const R: usize>: Copy {
 /// batch in their order: triangle `t` is lane `t % 8` of batch `t / 8`, and lanes past a batch's count
 /// repeat its last.
 pub type Triangles = [Batch<3, 0>];
+
+/// A triangle as a lane of a scan's batches: its corners as the particles, and its constants.
+#[derive(Debug, Clone, Copy)]
+struct Lane([u32; 3], [f64; CONSTANTS]);
+
+impl Packable<3, 0> for Lane {
+    fn particles(&self) -> [usize; 3] {
+        self.0.map(|i| i as usize)
+    }
+    fn constants(&self) -> [f64; CONSTANTS] {
+        self.1
+    }
+    fn factors(&self) -> [f64; 0] {
+        []
+    }
+}
+
+/// Triangles (their corners) with their constants, packed as [`Triangles`].
+pub fn pack(triangles: impl IntoIterator<Item = ([u32; 3], [f64; CONSTANTS])>) -> Vec<Batch<3, 0>> {
+    let all: Vec<Lane> = triangles.into_iter().map(|(t, c)| Lane(t, c)).collect();
+    Batches::new(&all, &[0, all.len()]).batches
+}
 
 /// Into `failed` (cleared first), in order, the triangles of `batches` that fail `test` at `rows`:
 /// eight at a time if `fastest` and the CPU has AVX2, else one at a time.

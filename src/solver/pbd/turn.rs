@@ -10,29 +10,12 @@
 
 use glam::DVec3;
 
-use super::batch::{Batch, Batches, CONSTANTS, Indexed, LANES, Packable, Row};
+use super::batch::{Batch, CONSTANTS, Indexed, LANES, Row};
 use super::scan;
 use crate::linalg::real::{self, Real, V3};
 
 /// How much under the limit the single-precision test holds its triangles, radians.
 const SLACK: f64 = 1e-2;
-
-/// A watched triangle: its corners and its unit normal when it was taken, packed as a lane of the
-/// sweeps' batches are ([`Batches`]: the corners as its particles, the normal as its constants).
-#[derive(Debug, Clone, Copy)]
-struct Watched([u32; 3], DVec3);
-
-impl Packable<3, 0> for Watched {
-    fn particles(&self) -> [usize; 3] {
-        self.0.map(|i| i as usize)
-    }
-    fn constants(&self) -> [f64; CONSTANTS] {
-        self.1.to_array()
-    }
-    fn factors(&self) -> [f64; 0] {
-        []
-    }
-}
 
 /// Triangles and their normals, watched for turning, eight to a batch in their order (triangle `t` is
 /// lane `t % 8` of batch `t / 8`; lanes past a batch's count repeat its last).
@@ -44,8 +27,7 @@ pub struct Watch {
 impl Watch {
     /// Watch these triangles, with their unit normals now.
     pub fn new(triangles: impl IntoIterator<Item = ([u32; 3], DVec3)>) -> Self {
-        let all: Vec<Watched> = triangles.into_iter().map(|(t, n)| Watched(t, n)).collect();
-        Self { batches: Batches::new(&all, &[0, all.len()]).batches }
+        Self { batches: scan::pack(triangles.into_iter().map(|(t, n)| (t, n.to_array()))) }
     }
 
     /// Take triangle `t`'s unit normal now (its lane, and the lanes after it that repeat it).
