@@ -6,6 +6,7 @@ pub mod gizmo;
 pub mod loader;
 pub mod orbit;
 pub mod panel;
+pub mod readout;
 pub mod scene_view;
 pub mod sim_thread;
 pub mod surface;

@@ -8,6 +8,7 @@ use std::collections::{BTreeMap, VecDeque};
 use egui::{Color32, RichText};
 use egui_plot::{Line, Plot};
 
+use super::readout::ReadoutView;
 use super::sim_thread::{Pacing, SimStatus, Snapshot};
 use crate::solver::{DragId, DragKind, ParamSpec, registry};
 
@@ -368,9 +369,29 @@ fn statistics(ui: &mut egui::Ui, state: &PanelState, snap: &Snapshot) {
         let info: Vec<String> = snap.info.iter().map(|(k, v)| format!("{k} {v}")).collect();
         ui.label(info.join("   ")).on_hover_text("What the solver is using right now");
     }
+    if let Some(r) = &snap.readout {
+        readout(ui, r);
+    }
     // Step time and energy have unrelated units and scales: one plot each, each with its own axis.
     history_plot(ui, state, "step_ms", "step time (ms)", 1);
     history_plot(ui, state, "energy", "energy (J)", 2);
+}
+
+/// The quality readout: area change, estimated error, and a warning with its remedy past the target.
+fn readout(ui: &mut egui::Ui, r: &ReadoutView) {
+    let estimate = match (r.estimate, &r.failure) {
+        (_, Some(f)) => format!("estimate failed: {f}"),
+        (Some(e), None) => format!("estimated error {:.1}%", 100.0 * e),
+        (None, None) => "estimated error …".into(),
+    };
+    ui.label(format!("area change {:+.2}%   {estimate}", 100.0 * r.area_change)).on_hover_text(
+        "Area change against rest, and the distance three Newton iterations of the full discrete shell \
+         (drags pinned) move the shape, relative to its displacement: an estimate of the error, recomputed \
+         in the background",
+    );
+    if let Some(w) = r.warning() {
+        ui.colored_label(ui.visuals().warn_fg_color, w);
+    }
 }
 
 /// One column of the history against simulated time, under its own title and y axis.

@@ -10,6 +10,8 @@ use glam::DVec3;
 use triple_buffer::{Output, triple_buffer};
 
 use super::ghost::{Ghost, GhostView};
+use super::readout::{Readout, ReadoutView};
+use crate::scene::Setup;
 use crate::solver::{Drag, DragId, DragKind, ParamValue, Progress, Solver, SolverError, StepStats};
 
 /// How simulated time relates to wall-clock time.
@@ -61,6 +63,8 @@ pub struct Snapshot {
     pub ghost: Option<GhostView>,
     /// The colliders' poses when the solver moves them (dynamic bodies), see [`Solver::body_poses`].
     pub bodies: Vec<(DVec3, glam::DQuat)>,
+    /// The quality readout, once the scene is watched ([`Command::Watch`]).
+    pub readout: Option<ReadoutView>,
 }
 
 /// A request to the simulation thread.
@@ -87,6 +91,9 @@ pub enum Command {
     Replace(Box<dyn Solver>),
     /// Run a reference ghost beside the solver (built on the same scene), or stop it.
     SetGhost(Option<Box<dyn Solver>>),
+    /// Judge the running model against the full shell of this scene (the quality readout), or stop;
+    /// a [`Command::Replace`] stops it too.
+    Watch(Option<Box<Setup>>),
     /// End the thread.
     Quit,
 }
@@ -164,6 +171,8 @@ struct SimLoop {
     ghost: Option<Ghost>,
     /// Simulated time of the main solver.
     time: f64,
+    /// The quality readout, if watched.
+    readout: Option<Readout>,
 }
 
 /// When more than this much simulated time is owed, the backlog is dropped instead of caught up.
@@ -188,6 +197,7 @@ impl SimLoop {
             shown_progress: None,
             ghost: None,
             time: 0.0,
+            readout: None,
         }
     }
 
@@ -200,9 +210,11 @@ impl SimLoop {
 
     fn snapshot(&self) -> Snapshot {
         let solver = self.solver.as_ref();
+        // A diverged step leaves non-finite or exploded positions in the solver: show the last good ones.
+        let positions = if self.diverged.is_some() { self.last_good.clone() } else { solver.positions().to_vec() };
         Snapshot {
-            // A diverged step leaves non-finite or exploded positions in the solver: show the last good ones.
-            positions: if self.diverged.is_some() { self.last_good.clone() } else { solver.positions().to_vec() },
+            readout: self.readout.as_ref().map(|r| r.view(&positions)),
+            positions,
             steps: self.steps,
             stats: self.stats,
             status: self.status(),
@@ -310,9 +322,14 @@ impl SimLoop {
                 self.owed = 0.0;
                 Ok(())
             }
+            Command::Watch(setup) => {
+                self.readout = setup.map(|s| Readout::new(*s));
+                Ok(())
+            }
             Command::Replace(solver) => {
                 self.solver = solver;
                 self.ghost = None;
+                self.readout = None;
                 self.restart();
                 Ok(())
             }
@@ -363,6 +380,11 @@ impl SimLoop {
             }
             // Background work finishes, and its progress is shown, even while nothing steps.
             changed |= self.poll_background();
+            if let Some(r) = &mut self.readout
+                && self.diverged.is_none()
+            {
+                changed |= r.poll(self.solver.as_ref(), self.steps);
+            }
             let now = Instant::now();
             let elapsed = now.duration_since(clock).as_secs_f64();
             clock = now;

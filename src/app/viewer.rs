@@ -182,6 +182,7 @@ impl Running {
             None,
         );
         let sim = SimHandle::spawn(solver, options.paused, Pacing::Scaled(1.0));
+        sim.send(Command::Watch(Some(Box::new(setup.clone()))));
         if ghost.is_some() {
             sim.send(Command::SetGhost(ghost));
         }
@@ -332,6 +333,7 @@ impl Running {
             None => {}
             Some(Ok(Loaded { source, setup, solver })) => {
                 self.sim.send(Command::Replace(solver));
+                self.sim.send(Command::Watch(Some(Box::new(setup.clone()))));
                 let title;
                 (title, self.view, self.orbit) = scene_parts(&setup);
                 self.window.set_title(&title);

@@ -102,3 +102,15 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Eval(args) => eval::run(&args),
     }
 }
+
+/// Parse `VERTEX:X,Y,Z` (also `VERTEX:WX,WY,WZ`).
+pub(crate) fn parse_drag(s: &str) -> Result<(usize, glam::DVec3), String> {
+    let bad = || format!("`{s}`: expected VERTEX:X,Y,Z, e.g. 204:0.5,0.2,0.0");
+    let (v, xyz) = s.split_once(':').ok_or_else(bad)?;
+    let v = v.trim().parse().map_err(|_| bad())?;
+    let c: Vec<f64> = xyz.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| bad())?;
+    match c[..] {
+        [x, y, z] if c.iter().all(|x| x.is_finite()) => Ok((v, glam::DVec3::new(x, y, z))),
+        _ => Err(bad()),
+    }
+}

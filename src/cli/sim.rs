@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use glam::DVec3;
 use serde::Serialize;
-use shellwarp::solver::{self, StepStats};
+use shellwarp::solver::{self, Drag, DragKind, StepStats, quality};
 
 use super::SceneArgs;
 
@@ -24,6 +24,13 @@ pub struct SimArgs {
     /// Print one JSON object instead of a text summary.
     #[arg(long)]
     json: bool,
+    /// Position drag held from the first step: VERTEX:X,Y,Z (repeatable).
+    #[arg(long, value_name = "VERTEX:X,Y,Z", value_parser = super::parse_drag)]
+    drag: Vec<(usize, DVec3)>,
+    /// Orientation drag held from the first step: VERTEX:WX,WY,WZ, a rotation vector in radians
+    /// (repeatable; methods with orientation drags only).
+    #[arg(long, value_name = "VERTEX:WX,WY,WZ", value_parser = super::parse_drag)]
+    twist: Vec<(usize, DVec3)>,
 }
 
 /// Summary statistics of a series of seconds; all zero when no step completed.
@@ -117,12 +124,22 @@ struct Report {
     diverged: Option<String>,
     /// Choices the method made by itself (e.g. an automatic substep).
     notes: Vec<String>,
+    /// Relative area change of the final shape.
+    area_change: f64,
+    /// The final shape's estimated relative error against the full discrete shell (a few Newton
+    /// iterations of its equations, drags pinned); null for the cloths and `rigid`.
+    estimated_error: Option<f64>,
 }
 
 /// Run the simulation and print the report; exit code 1 if it diverged.
 pub fn run(args: &SimArgs) -> anyhow::Result<ExitCode> {
     let setup = args.scene.load()?;
     let mut solver = solver::build(&setup).with_context(|| format!("building solver for {}", setup.origin.label))?;
+    let drags = (args.drag.iter().map(|&(vertex, p)| Drag { vertex, kind: DragKind::Position(p) }))
+        .chain(args.twist.iter().map(|&(vertex, w)| Drag { vertex, kind: DragKind::Orientation(w) }));
+    for drag in drags {
+        solver.drags_mut().add(drag).with_context(|| format!("a drag on vertex {}", drag.vertex))?;
+    }
     let mut times = StepTimes::new();
     let mut last = StepStats::default();
     let mut iterations = 0u64;
@@ -150,6 +167,11 @@ pub fn run(args: &SimArgs) -> anyhow::Result<ExitCode> {
         // The error names the file already.
         shellwarp::mesh::obj::save_obj(path, &finite, setup.mesh.triangles()).context("writing the final mesh")?;
     }
+    let estimated_error = if quality::judged(solver.method()) && diverged.is_none() {
+        Some(quality::estimate(&setup, &finite, solver.drags()).context("estimating the error")?)
+    } else {
+        None
+    };
     let report = Report {
         scene: setup.scene.name.clone(),
         method: solver.method().to_string(),
@@ -168,6 +190,8 @@ pub fn run(args: &SimArgs) -> anyhow::Result<ExitCode> {
         bbox_max: hi.to_array(),
         diverged,
         notes: solver.notes(),
+        area_change: setup.mesh.area_change(&finite),
+        estimated_error,
     };
     if args.json {
         println!("{}", serde_json::to_string(&report)?);
@@ -184,6 +208,8 @@ pub fn run(args: &SimArgs) -> anyhow::Result<ExitCode> {
             report.final_energy
         );
         println!("bounding box: {:?} .. {:?}", report.bbox_min, report.bbox_max);
+        let estimate = report.estimated_error.map_or(String::new(), |e| format!(", estimated error {:.2}%", 100.0 * e));
+        println!("area change {:+.3}%{estimate}", 100.0 * report.area_change);
         if report.unconverged_steps > 0 {
             println!(
                 "{} of {} steps stopped above the solver tolerance (last relative residual {:.2e})",

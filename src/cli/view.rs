@@ -36,11 +36,11 @@ pub struct ViewArgs {
     out: PathBuf,
     /// Scripted position drag, sent through the same command channel as the mouse: VERTEX:X,Y,Z
     /// (target in metres; repeatable).
-    #[arg(long, value_name = "VERTEX:X,Y,Z", value_parser = parse_drag)]
+    #[arg(long, value_name = "VERTEX:X,Y,Z", value_parser = super::parse_drag)]
     drag: Vec<(usize, DVec3)>,
     /// Scripted orientation drag, like --drag: VERTEX:WX,WY,WZ (rotation vector, axis × angle in
     /// radians; repeatable).
-    #[arg(long, value_name = "VERTEX:WX,WY,WZ", value_parser = parse_drag)]
+    #[arg(long, value_name = "VERTEX:WX,WY,WZ", value_parser = super::parse_drag)]
     twist: Vec<(usize, DVec3)>,
     /// With --screenshot-after: also write the simulation state in the screenshot as JSON.
     #[arg(long, value_name = "FILE")]
@@ -60,18 +60,6 @@ impl Default for ViewArgs {
 /// Parse a window size `WIDTHxHEIGHT`, each side from 1 to 8192.
 fn parse_window_size(s: &str) -> Result<(u32, u32), String> {
     parse_size_up_to(s, 8192)
-}
-
-/// Parse `VERTEX:X,Y,Z` (also `VERTEX:WX,WY,WZ`).
-fn parse_drag(s: &str) -> Result<(usize, DVec3), String> {
-    let bad = || format!("`{s}`: expected VERTEX:X,Y,Z, e.g. 204:0.5,0.2,0.0");
-    let (v, xyz) = s.split_once(':').ok_or_else(bad)?;
-    let v = v.trim().parse().map_err(|_| bad())?;
-    let c: Vec<f64> = xyz.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| bad())?;
-    match c[..] {
-        [x, y, z] if c.iter().all(|x| x.is_finite()) => Ok((v, DVec3::new(x, y, z))),
-        _ => Err(bad()),
-    }
 }
 
 /// Open the viewer.

@@ -38,9 +38,7 @@ pub fn area(x: &[DVec3], triangles: &[[usize; 3]]) -> f64 {
 
 /// Relative area change `(A − A₀) / A₀` (signed).
 pub fn area_change(x: &[DVec3], setup: &Setup) -> f64 {
-    let tris = setup.mesh.triangles();
-    let a0 = area(setup.mesh.positions(), tris);
-    (area(x, tris) - a0) / a0
+    setup.mesh.area_change(x)
 }
 
 /// The static reference: `ds-static` with its default settings, one step from rest.

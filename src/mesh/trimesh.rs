@@ -76,6 +76,17 @@ impl TriMesh {
         self.positions.len()
     }
 
+    /// Total area at positions `x` (one per vertex), m².
+    pub fn area_at(&self, x: &[DVec3]) -> f64 {
+        self.triangles.iter().map(|t| area_of(x, t)).sum()
+    }
+
+    /// Relative area change `(A(x) − A₀) / A₀` of positions `x` against the rest shape (signed).
+    pub fn area_change(&self, x: &[DVec3]) -> f64 {
+        let rest = self.area_at(&self.positions);
+        (self.area_at(x) - rest) / rest
+    }
+
     /// Area of every triangle at rest.
     pub fn triangle_areas(&self) -> Vec<f64> {
         self.triangles.iter().map(|t| area_of(&self.positions, t)).collect()

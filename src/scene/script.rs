@@ -42,7 +42,7 @@ pub struct Track {
 }
 
 /// One keyframe: the frame's translation from rest and/or its rotation at `time`. Every key of a
-/// track gives the same fields; positions interpolate linearly, rotations by slerp.
+/// track gives the same fields; both interpolate linearly (a rotation key is the turn written).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Key {

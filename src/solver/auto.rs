@@ -10,13 +10,11 @@
 //! a fixed step adds time-discretisation error that is not counted).
 //!
 //! - **Shells** (`rigid`, the modal methods with 1–64 modes, `ds-implicit`): the candidate's static
-//!   equilibrium (run to rest under critical damping of the lowest mode) starts
-//!   [`NEWTON_ITERATIONS`] iterations of Newton's method (with line search) on the full
-//!   discrete-shell equations; the distance they travel, relative to the displacement they arrive
-//!   at, estimates the relative error. Newton converges quadratically from a good start, so three
-//!   iterations cover nearly all of the remaining distance (one alone underestimates a 9% error on
-//!   the V-beam at 40 g by half). `rigid` has error 1 (no displacement) and `ds-implicit` 0 (it
-//!   solves the full equations, whose equilibrium does not depend on its step).
+//!   equilibrium (run to rest under critical damping of the lowest mode) is judged by
+//!   [`super::quality::estimate`]: a few Newton iterations of the full discrete-shell equations,
+//!   the distance they travel relative to the displacement they arrive at. `rigid` has error 1 (no
+//!   displacement) and `ds-implicit` 0 (it solves the full equations, whose equilibrium does not
+//!   depend on its step).
 //! - **Cloth** (`cloth` at 40, 20 and 10 ms, PCG tolerance 1e-2 to 1e-4): the candidate's rest state is relaxed by
 //!   [`RELAX_STEPS`] backward-Euler steps of 0.1 s with a tight PCG tolerance (nearly Newton steps on
 //!   the static cloth equations); the distance travelled relative to the displacement is the
@@ -31,7 +29,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::run::{Stop, distance, run};
-use super::{NewtonSettings, ShellModel, Solver, SolverError, registry};
+use super::{DragSet, Solver, SolverError, quality, registry};
 use crate::scene::Setup;
 
 /// Mode counts tried by the modal methods.
@@ -40,8 +38,6 @@ pub const MODES: [usize; 7] = [1, 2, 4, 8, 16, 32, 64];
 pub const CLOTH_STEPS: [f64; 3] = [0.04, 0.02, 0.01];
 /// Cloth PCG tolerances tried.
 pub const CLOTH_TOLERANCES: [f64; 3] = [1e-2, 1e-3, 1e-4];
-/// Newton iterations of the full shell equations behind a shell estimate.
-pub const NEWTON_ITERATIONS: usize = 3;
 
 /// What a scene is made of, which decides the candidates and the estimate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -167,7 +163,7 @@ impl Choice {
 /// Choose the method for `setup` (whose `solver.accuracy` may be unset: `accuracy` is the target).
 pub fn choose(setup: &Setup, accuracy: f64) -> Result<Choice, SolverError> {
     let family = Family::of(setup);
-    let mut candidates = match family {
+    let candidates = match family {
         Family::Shell => shell_candidates(setup),
         Family::Cloth => CLOTH_STEPS
             .iter()
@@ -180,6 +176,51 @@ pub fn choose(setup: &Setup, accuracy: f64) -> Result<Choice, SolverError> {
             })
             .collect(),
     };
+    choose_among(setup, accuracy, candidates, &DragSet::default())
+}
+
+/// The cheapest shell model that meets `accuracy` under the drags as they stand (their targets
+/// held still), among a few steps up from `method` with `modes` modes: the same method with 2× and
+/// 4× the modes, `mwts-rs` with 1×, 2× and 4× the modes (each up to 64), and `ds-implicit`. The
+/// remedy the viewer's readout names when a model is not enough. The scene's tracks are replaced
+/// by `drags`.
+pub fn remedy(
+    setup: &Setup,
+    accuracy: f64,
+    drags: &DragSet,
+    method: &str,
+    modes: usize,
+) -> Result<Choice, SolverError> {
+    let mut still = setup.clone();
+    still.scene.tracks.clear();
+    still.tracks.clear();
+    let free = 3 * (setup.mesh.vertex_count() - setup.anchors.len());
+    let mut candidates: Vec<Candidate> = Vec::new();
+    let mut add = |method: &'static str, modes: usize| {
+        let c = Candidate::new(method, Some(modes.clamp(1, 64)));
+        if c.modes.is_some_and(|m| m < free) && !candidates.contains(&c) {
+            candidates.push(c);
+        }
+    };
+    if let Ok(m) = registry::find(method)
+        && matches!(m.name, "lma" | "mwts")
+    {
+        [2, 4].into_iter().for_each(|k| add(m.name, k * modes));
+    }
+    [1, 2, 4].into_iter().for_each(|k| add("mwts-rs", k * modes));
+    candidates.push(Candidate::new("ds-implicit", None));
+    choose_among(&still, accuracy, candidates, drags)
+}
+
+/// Measure every candidate's cost, then estimate them cheapest first under `drags` until one meets
+/// `accuracy`.
+fn choose_among(
+    setup: &Setup,
+    accuracy: f64,
+    mut candidates: Vec<Candidate>,
+    drags: &DragSet,
+) -> Result<Choice, SolverError> {
+    let family = Family::of(setup);
     for c in &mut candidates {
         c.cost = cost(&c.apply(setup))?;
     }
@@ -188,7 +229,7 @@ pub fn choose(setup: &Setup, accuracy: f64) -> Result<Choice, SolverError> {
     for (i, c) in candidates.iter_mut().enumerate() {
         c.estimate = match family {
             Family::Cloth => cloth_estimate(setup, c)?,
-            Family::Shell => shell_estimate(setup, c)?,
+            Family::Shell => shell_estimate(setup, c, drags)?,
         };
         if c.estimate <= accuracy {
             chosen = Some(i);
@@ -234,28 +275,24 @@ fn cost(setup: &Setup) -> Result<f64, SolverError> {
     Ok(wall / simulated)
 }
 
-/// The relative error estimate of a shell candidate (see the module doc).
-fn shell_estimate(setup: &Setup, c: &Candidate) -> Result<f64, SolverError> {
+/// The relative error estimate of a shell candidate under `drags` (see the module doc).
+fn shell_estimate(setup: &Setup, c: &Candidate, drags: &DragSet) -> Result<f64, SolverError> {
     match c.method {
         "rigid" => return Ok(1.0),
         "ds-implicit" => return Ok(0.0),
         _ => {}
     }
-    let x = at_rest(setup, c)?;
-    let mut model = ShellModel::new(setup)?;
-    let mut corrected = x.clone();
-    model.minimize(&mut corrected, None, NewtonSettings { max_iterations: NEWTON_ITERATIONS, tolerance: 1e-10 })?;
-    Ok(distance(&corrected, &x) / distance(&corrected, setup.mesh.positions()))
+    quality::estimate(setup, settle(setup, c, drags)?.positions(), drags)
 }
 
 /// The candidate's equilibrium under the scene's loads: shells run to rest under critical damping of
 /// their lowest mode (at most 40 time constants), cloth under its own damping (at most 20 s).
 pub fn at_rest(setup: &Setup, c: &Candidate) -> Result<Vec<DVec3>, SolverError> {
-    Ok(settle(setup, c)?.positions().to_vec())
+    Ok(settle(setup, c, &DragSet::default())?.positions().to_vec())
 }
 
-/// [`at_rest`], returning the settled solver.
-fn settle(setup: &Setup, c: &Candidate) -> Result<Box<dyn Solver>, SolverError> {
+/// [`at_rest`] under `drags` (those the candidate's method takes), returning the settled solver.
+fn settle(setup: &Setup, c: &Candidate, drags: &DragSet) -> Result<Box<dyn Solver>, SolverError> {
     let rest = setup.mesh.positions().to_vec();
     let mut s = c.apply(setup);
     let stop = match Family::of(setup) {
@@ -268,6 +305,16 @@ fn settle(setup: &Setup, c: &Candidate) -> Result<Box<dyn Solver>, SolverError> 
         Family::Cloth => Stop { max_time: 20.0, max_steps: 20_000, rest: 1e-6 },
     };
     let mut solver = registry::build(&s)?;
+    for (_, d) in drags.iter() {
+        if matches!(d.kind, super::DragKind::Position(_)) || solver.drags().supports_orientation() {
+            solver.drags_mut().add(*d)?;
+        }
+    }
+    if solver.drags().supports_orientation() {
+        for (_, f) in drags.frames() {
+            solver.drags_mut().add_frame(f.clone())?;
+        }
+    }
     let reached = run(solver.as_mut(), &rest, stop);
     match reached.outcome {
         super::run::Outcome::Diverged(e) => Err(e),
@@ -279,7 +326,7 @@ fn settle(setup: &Setup, c: &Candidate) -> Result<Box<dyn Solver>, SolverError> 
 /// Euler steps of 0.1 s with a tight PCG (nearly Newton steps on the static cloth equations, `M/h²`
 /// keeping them regular); the distance they travel, relative to the displacement they arrive at.
 fn cloth_estimate(setup: &Setup, c: &Candidate) -> Result<f64, SolverError> {
-    let mut solver = settle(setup, c)?;
+    let mut solver = settle(setup, c, &DragSet::default())?;
     let x = solver.positions().to_vec();
     for (name, value) in [("step", 0.1), ("tolerance", 1e-8), ("iterations", 1e5)] {
         solver.set_param(name, value)?;

@@ -16,6 +16,7 @@ mod newton;
 mod params;
 pub mod parts;
 pub mod pbd;
+pub mod quality;
 pub mod registry;
 mod rigid;
 pub mod run;
@@ -25,7 +26,7 @@ mod stability;
 mod stats;
 pub mod wind;
 
-pub use drag::{Drag, DragId, DragKind, DragSet};
+pub use drag::{Drag, DragId, DragKind, DragSet, FrameDrag};
 pub use ds_explicit::{DsExplicit, STABLE_LIMIT_INFO};
 pub use ds_implicit::DsImplicit;
 pub use ds_static::DsStatic;

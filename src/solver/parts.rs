@@ -14,7 +14,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::registry::find;
-use super::{Drag, DragSet, ParamValue, Progress, Solver, SolverError, StepStats};
+use super::{Drag, DragSet, FrameDrag, ParamValue, Progress, Solver, SolverError, StepStats};
 use crate::scene::Setup;
 
 /// One part: its solver and the global index of each of its vertices.
@@ -133,6 +133,14 @@ impl Parts {
         for (_, d) in self.drags.iter() {
             let (part, local) = self.owner[d.vertex];
             self.parts[part].solver.drags_mut().add(Drag { vertex: local, kind: d.kind })?;
+        }
+        // A frame spanning several parts turns each part's share of it.
+        for (_, f) in self.drags.frames() {
+            let mut shares: Vec<Vec<usize>> = vec![Vec::new(); self.parts.len()];
+            f.vertices.iter().map(|&v| self.owner[v]).for_each(|(part, local)| shares[part].push(local));
+            for (part, vertices) in shares.into_iter().enumerate().filter(|(_, v)| !v.is_empty()) {
+                self.parts[part].solver.drags_mut().add_frame(FrameDrag { vertices, rotation: f.rotation })?;
+            }
         }
         self.synced = Some(self.drags.revision());
         Ok(())

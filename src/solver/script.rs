@@ -1,25 +1,30 @@
 //! Scripted constraints: a scene's tracks (and the skeleton they may follow) drive the same drag
 //! constraints the mouse makes, through [`DragSet`], so every method that takes drags takes tracks.
 //!
-//! A track moves its vertices as one rigid frame: at time `t` the frame has rotation `R` about the
-//! pivot `c` and translation `d`, and vertex `i` is asked to be at `c + d + R (X_i − c)` (position
-//! drags, when the track has positions or follows a joint) and to have turned by `R` (orientation
-//! drags, when it has rotations or follows a joint). Positions interpolate linearly between keys,
-//! rotations by slerp; a looping track starts over after its last key. Rotation targets are given as
-//! rotation vectors chosen continuous in time (`θ` grows past π instead of flipping to `−(2π − θ)`),
-//! so a tip twisted by 360° over two seconds is asked to turn smoothly all the way.
+//! A track moves its vertices as one rigid frame: at time `t` the frame has rotation `R = exp([w]×)`
+//! about the pivot `c` and translation `d`, and vertex `i` is asked to be at `c + d + R (X_i − c)`.
+//!
+//! - Keys interpolate linearly, translations and **rotation vectors alike**: the rotation is the
+//!   vector written, so keys `0` and `2π x̂` turn a full turn and `3π/2 x̂` turns +270°, never the
+//!   shorter way back. A looping track starts over after its last key.
+//! - A track with positions (or following a joint) drives a position drag on every vertex.
+//! - A track with rotations drives one [`FrameDrag`] on its whole selection (the selection turns as a
+//!   whole; one orientation per vertex would over-determine a row that only has to turn as a whole)
+//!   where the method has orientation drags, and otherwise position drags on every vertex at its
+//!   place in the turned frame: the discrete shells follow the same twist as the modal methods.
 //!
 //! A joint-following track uses the joint's world frame relative to its frame at time 0 (the pose
-//! the mesh was modelled in): `F(t) F(0)⁻¹`.
+//! the mesh was modelled in): `F(t) F(0)⁻¹`, whose rotation vector is chosen continuous in time
+//! (`θ` grows past π instead of flipping to `−(2π − θ)`).
 
 use glam::{DQuat, DVec3};
 
-use super::{Drag, DragId, DragKind, Solver, SolverError, StepStats};
+use super::{Drag, DragId, DragKind, FrameDrag, Solver, SolverError, StepStats};
 use crate::scene::{Key, Setup, Skeleton};
 
 /// Interpolate keys at `t` (clamped to the keys' span, or wrapped when `looping`): the translation
-/// and the rotation the keys give (`None` where they give none).
-pub fn sample(keys: &[Key], t: f64, looping: bool) -> (Option<DVec3>, Option<DQuat>) {
+/// and the rotation vector the keys give (`None` where they give none), both linearly.
+pub fn sample(keys: &[Key], t: f64, looping: bool) -> (Option<DVec3>, Option<DVec3>) {
     let (Some(first), Some(last)) = (keys.first(), keys.last()) else { return (None, None) };
     let span = last.time - first.time;
     let t = if looping && span > 0.0 && t > last.time { first.time + (t - first.time).rem_euclid(span) } else { t };
@@ -32,12 +37,8 @@ pub fn sample(keys: &[Key], t: f64, looping: bool) -> (Option<DVec3>, Option<DQu
             (a, b, (t - a.time) / (b.time - a.time))
         }
     };
-    let position = a.position.zip(b.position).map(|(p, q)| DVec3::from(p).lerp(DVec3::from(q), s));
-    let rotation = a.rotation.zip(b.rotation).map(|(p, q)| {
-        let (p, q) = (DQuat::from_scaled_axis(DVec3::from(p)), DQuat::from_scaled_axis(DVec3::from(q)));
-        p.slerp(q, s)
-    });
-    (position, rotation)
+    let lerp = |p: [f64; 3], q: [f64; 3]| DVec3::from(p).lerp(DVec3::from(q), s);
+    (a.position.zip(b.position).map(|(p, q)| lerp(p, q)), a.rotation.zip(b.rotation).map(|(p, q)| lerp(p, q)))
 }
 
 /// The rotation vector of `q` closest to `previous` among its equivalents `â (θ + 2πk)`, so that a
@@ -95,7 +96,7 @@ impl Rig {
     pub fn frames(&self, t: f64) -> Vec<(DQuat, DVec3)> {
         let mut frames: Vec<(DQuat, DVec3)> = Vec::with_capacity(self.joints.len());
         for (parent, offset, keys) in &self.joints {
-            let own = sample(keys, t, self.looping).1.unwrap_or(DQuat::IDENTITY);
+            let own = sample(keys, t, self.looping).1.map_or(DQuat::IDENTITY, DQuat::from_scaled_axis);
             let frame = match parent {
                 Some(p) => {
                     let (r, o) = frames[*p];
@@ -132,8 +133,8 @@ struct Driven {
     positions: bool,
     rotations: bool,
     position_drags: Vec<DragId>,
-    orientation_drags: Vec<DragId>,
-    /// The last rotation target, for continuity.
+    frame_drag: Option<DragId>,
+    /// The last rotation target of a joint-following track, for continuity.
     previous: DVec3,
 }
 
@@ -176,7 +177,7 @@ impl Script {
                     positions,
                     rotations,
                     position_drags: Vec::new(),
-                    orientation_drags: Vec::new(),
+                    frame_drag: None,
                     previous: DVec3::ZERO,
                 }
             })
@@ -194,65 +195,64 @@ impl Script {
         &self.rig
     }
 
-    /// Track `k`'s frame at `t`: (pivot, translation, rotation).
-    fn frame(&self, k: usize, t: f64) -> (DVec3, DVec3, DQuat) {
+    /// Track `k`'s frame at `t`: (pivot, translation, rotation vector).
+    fn frame(&mut self, k: usize, t: f64) -> (DVec3, DVec3, DVec3) {
         let track = &self.tracks[k];
         match &track.source {
             Source::Keys(keys) => {
-                let (d, r) = sample(keys, t, track.looping);
-                (track.pivot, d.unwrap_or(DVec3::ZERO), r.unwrap_or(DQuat::IDENTITY))
+                let (d, w) = sample(keys, t, track.looping);
+                (track.pivot, d.unwrap_or(DVec3::ZERO), w.unwrap_or(DVec3::ZERO))
             }
             Source::Joint(j) => {
                 let (now, start) = (self.rig.frames(t)[*j], self.rig.frames(0.0)[*j]);
-                (start.1, now.1 - start.1, now.0 * start.0.inverse())
+                let w = unwrap_rotation(now.0 * start.0.inverse(), track.previous);
+                self.tracks[k].previous = w;
+                (start.1, now.1 - start.1, w)
             }
         }
     }
 
-    /// The targets of every track at `t`: per track, the position target of each vertex (if the track
-    /// has positions) and its rotation vector (if it has rotations).
+    /// The targets of every track at `t`: per track, the place of each vertex in the track's frame
+    /// and the frame's rotation vector (if the track has rotations).
     pub fn targets(&mut self, t: f64) -> Vec<(Vec<DVec3>, Option<DVec3>)> {
         (0..self.tracks.len())
             .map(|k| {
-                let (c, d, r) = self.frame(k, t);
-                let track = &self.tracks[k];
-                let positions = if track.positions {
-                    track.vertices.iter().map(|&v| c + d + r * (self.rest[v] - c)).collect()
-                } else {
-                    Vec::new()
-                };
-                let rotation = track.rotations.then(|| unwrap_rotation(r, track.previous));
-                if let Some(w) = rotation {
-                    self.tracks[k].previous = w;
-                }
-                (positions, rotation)
+                let (c, d, w) = self.frame(k, t);
+                let (track, r) = (&self.tracks[k], DQuat::from_scaled_axis(w));
+                let positions = track.vertices.iter().map(|&v| c + d + r * (self.rest[v] - c)).collect();
+                (positions, track.rotations.then_some(w))
             })
             .collect()
     }
 
     /// Set the drags of every track to its targets at `t`, adding them the first time (or again if
-    /// they were removed, e.g. by the user). A method without orientation drags refuses a track
-    /// with rotations: the error names the track.
+    /// they were removed, e.g. by the user): position drags where the track has positions, one frame
+    /// drag for its rotation where the method has orientation drags, else position drags in the
+    /// turned frame.
     pub fn drive(&mut self, solver: &mut dyn Solver, t: f64) -> Result<(), SolverError> {
         let targets = self.targets(t);
         let method = solver.method();
         for (k, (positions, rotation)) in targets.into_iter().enumerate() {
             let track = &mut self.tracks[k];
             let named = |e: SolverError| match e {
-                SolverError::BadDrag(reason) => SolverError::BadDrag(format!(
-                    "tracks[{k}]: {reason} (method `{method}`; give the track positions only)"
-                )),
+                SolverError::BadDrag(reason) => {
+                    SolverError::BadDrag(format!("tracks[{k}]: {reason} (method `{method}`)"))
+                }
                 e => e,
             };
             let drags = solver.drags_mut();
-            for (i, &v) in track.vertices.iter().enumerate() {
-                if let Some(&p) = positions.get(i) {
+            let framed = rotation.is_some() && drags.supports_orientation();
+            if track.positions || (rotation.is_some() && !framed) {
+                for (i, (&v, &p)) in track.vertices.iter().zip(&positions).enumerate() {
                     set(drags, &mut track.position_drags, i, Drag { vertex: v, kind: DragKind::Position(p) })
                         .map_err(named)?;
                 }
-                if let Some(w) = rotation {
-                    set(drags, &mut track.orientation_drags, i, Drag { vertex: v, kind: DragKind::Orientation(w) })
-                        .map_err(named)?;
+            }
+            if let (Some(w), true) = (rotation, framed) {
+                let retargeted = track.frame_drag.is_some_and(|id| drags.retarget_frame(id, w).is_ok());
+                if !retargeted {
+                    let frame = FrameDrag { vertices: track.vertices.clone(), rotation: w };
+                    track.frame_drag = Some(drags.add_frame(frame).map_err(named)?);
                 }
             }
         }
@@ -360,15 +360,27 @@ mod tests {
     }
 
     #[test]
-    fn keys_interpolate_linearly_and_by_slerp_clamp_and_loop() {
+    fn keys_interpolate_linearly_clamp_and_loop() {
         let keys = [key(0.0, Some([0.0; 3]), Some([0.0; 3])), key(2.0, Some([2.0, 0.0, 0.0]), Some([0.0, 0.0, 1.0]))];
         let (p, r) = sample(&keys, 0.5, false);
         assert!((p.unwrap() - DVec3::new(0.5, 0.0, 0.0)).length() < 1e-15);
-        assert!((r.unwrap().to_scaled_axis() - DVec3::new(0.0, 0.0, 0.25)).length() < 1e-12, "slerp about one axis");
+        assert!((r.unwrap() - DVec3::new(0.0, 0.0, 0.25)).length() < 1e-15, "rotation vectors interpolate linearly");
         assert_eq!(sample(&keys, 5.0, false).0, Some(DVec3::new(2.0, 0.0, 0.0)), "held after the last key");
         let looped = sample(&keys, 2.5, true).0.unwrap();
         assert!((looped - DVec3::new(0.5, 0.0, 0.0)).length() < 1e-12, "wraps to t = 0.5");
         assert_eq!(sample(&keys, 1.0, false).0.map(|p| p.x), Some(1.0));
+    }
+
+    #[test]
+    fn rotation_keys_are_the_turns_written_not_the_shortest_arcs() {
+        let tau = std::f64::consts::TAU;
+        // 0 → 2π: halfway is a half turn (the shortest arc between the keys' rotations is no turn at all).
+        let full = [key(0.0, None, Some([0.0; 3])), key(1.0, None, Some([tau, 0.0, 0.0]))];
+        assert!((sample(&full, 0.5, false).1.unwrap() - DVec3::X * 0.5 * tau).length() < 1e-15);
+        // 0 → 3π/2: a quarter of the way is +67.5°, not −22.5° (the short way to −90°).
+        let most = [key(0.0, None, Some([0.0; 3])), key(1.0, None, Some([0.75 * tau, 0.0, 0.0]))];
+        let w = sample(&most, 0.25, false).1.unwrap();
+        assert!((w.x - 0.1875 * tau).abs() < 1e-15, "{w}");
     }
 
     #[test]

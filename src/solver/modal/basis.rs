@@ -101,6 +101,11 @@ impl ModalBasis {
         (&self.phi[c * m..(c + 1) * m], &self.psi[c * m..(c + 1) * m])
     }
 
+    /// Mode `j`'s displacement of every vertex.
+    pub fn shape(&self, j: usize) -> Vec<DVec3> {
+        (0..self.vertices).map(|v| DVec3::new(self.phi(v, 0, j), self.phi(v, 1, j), self.phi(v, 2, j))).collect()
+    }
+
     /// Least-squares coordinates of a displacement field in this basis (`Φᵀ M u` for mass `M`).
     pub fn project(&self, masses: &[f64], u: &[DVec3]) -> Vec<f64> {
         (0..self.modes)

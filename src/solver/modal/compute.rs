@@ -127,15 +127,45 @@ pub fn system(problem: &ModalProblem<'_>) -> Result<ModalSystem, SolverError> {
 /// The relative tolerance the Lanczos iteration converges the transformed problem to.
 pub const LANCZOS_TOLERANCE: f64 = 1e-13;
 
+/// The shifted stiffness `K − σM` of a modal problem, factored (nested-dissection order), with the
+/// unshifted `K`'s values kept for products: what the eigen iteration and the drags' static
+/// responses ([`super::ritz`]) solve with.
+pub struct Factored {
+    /// The eigenproblem; `system.k` holds `K − σM`.
+    pub system: ModalSystem,
+    /// The values of the unshifted `K` in `system.k`'s pattern.
+    pub k_values: Vec<f64>,
+    /// The Cholesky factor of `K − σM`.
+    pub chol: SparseCholesky,
+    /// Wall-clock seconds of assembly and of factorisation.
+    pub timings: (f64, f64),
+}
+
+/// Assemble and factor `K − σM` of `problem`.
+pub fn factored(problem: &ModalProblem<'_>) -> Result<Factored, SolverError> {
+    let t0 = Instant::now();
+    let mut system = system(problem)?;
+    let k_values = system.k.values().to_vec();
+    let (k, shift, mass) = (&mut system.k, system.shift, &system.mass);
+    k.add_diagonal(&mass.iter().map(|m| -shift * m).collect::<Vec<_>>());
+    let assembly = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let points: Vec<DVec3> = system.dofs.free_vertices().iter().map(|&v| problem.mesh.positions()[v]).collect();
+    let order: Vec<usize> = nested_dissection(&points, &k.block_adjacency())
+        .into_iter()
+        .flat_map(|b| [3 * b, 3 * b + 1, 3 * b + 2])
+        .collect();
+    let mut chol = SparseCholesky::with_order(k.matrix(), &order).map_err(numerical)?;
+    chol.factor(k.matrix()).map_err(numerical)?;
+    Ok(Factored { system, k_values, chol, timings: (assembly, t1.elapsed().as_secs_f64()) })
+}
+
 /// Run the modal analysis, reporting progress in `[0, 1]` through `progress`.
 pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<ModalAnalysis, SolverError> {
     let mesh = problem.mesh;
     let n = mesh.vertex_count();
-    let t0 = Instant::now();
-    let ModalSystem { mut k, mass, shift, dofs } = system(problem)?;
-    let k_values = k.values().to_vec();
-    let dim = mass.len();
     let free = problem.anchors.is_empty();
+    let dim = 3 * n.saturating_sub(problem.anchors.len());
     let wanted = problem.modes + if free { 6 } else { 0 };
     if problem.modes == 0 || wanted > dim {
         return Err(SolverError::Unsuitable {
@@ -143,19 +173,9 @@ pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<Mod
             reason: format!("{} modes asked of a shell with {dim} free DOFs", problem.modes),
         });
     }
-    k.add_diagonal(&mass.iter().map(|m| -shift * m).collect::<Vec<_>>());
-    let assembly = t0.elapsed().as_secs_f64();
-    progress(0.1);
-
-    let t1 = Instant::now();
-    let points: Vec<DVec3> = dofs.free_vertices().iter().map(|&v| mesh.positions()[v]).collect();
-    let order: Vec<usize> = nested_dissection(&points, &k.block_adjacency())
-        .into_iter()
-        .flat_map(|b| [3 * b, 3 * b + 1, 3 * b + 2])
-        .collect();
-    let mut chol = SparseCholesky::with_order(k.matrix(), &order).map_err(numerical)?;
-    chol.factor(k.matrix()).map_err(numerical)?;
-    let factorisation = t1.elapsed().as_secs_f64();
+    progress(0.05);
+    let Factored { system: ModalSystem { k, mass, shift, dofs }, k_values, chol, timings } = factored(problem)?;
+    let (assembly, factorisation) = timings;
     progress(0.3);
 
     let t2 = Instant::now();

@@ -12,30 +12,48 @@
 //!   stiffness `H = ∂g/∂q`, so the step solves `S v⁺ = v + h(g − λq)`, `S = I + hC + h²(Λ − H)`
 //!   (a small dense SPD system; if `S` is not positive definite the step falls back to `H = 0`).
 //!
-//! Drag constraints act on the reduced system. With `D = diag(h² / (1 + hc + h²λ))` the step's
-//! response to a modal force (`h² S⁻¹` for MWTS-RS), a constraint force `Jᵀμ` moves
-//! `q⁺ = q̂ + D Jᵀ μ`. Position
-//! constraints `X_i + u_i(q) = p*` are linearised about the current rotations
-//! (`J = B(w_i) Φ_i`, with `B` the warp operator, or `Φ_i` for LMA; for MWTS-RS about the current
-//! `q`, `u_i(q + δ) ≈ u_i(q) + J_i δ` with the reconstruction's exact Jacobian rows, recomputed once
-//! a triangle has turned by [`super::rotation_strain::ROWS_TURN`]); orientation
-//! constraints `Ψ_i q = w*` are linear. Writing each linearised constraint as `o + J q = t` (the
-//! offset `o = u_i(q) − J_i q` is zero except for MWTS-RS), the multipliers solve the damped
-//! least-squares system `(J D Jᵀ + ε I) μ = t − o − J q̂` with `ε = damping · trace(J D Jᵀ) / rows`
-//! — equivalently, each drag is a stiff implicit spring of compliance `ε`. With the default
-//! `damping = 1e-2` a reachable target is met to about 1%, and an unreachable one (a drag that
-//! over-determines the few modes) settles at the closest compromise instead of thrashing:
-//! re-linearising `B` every step with a hard constraint (`damping → 0`) makes such drags oscillate
-//! wildly (energy 3 J → 1700 J on the cantilever).
+//! Drag constraints act on the reduced system. Each is a condition `c_k(q) = t_k` linearised about
+//! the current `q` with its exact Jacobian, `o + J q = t` (`o = c(q) − J q`):
+//!
+//! - position drags `X_i + u_i(q) = p*`: LMA `J = Φ_i`; MWTS, where `u_i = B(w_i) Φ_i q` with
+//!   `w_i = Ψ_i q` and `B` the warp operator, `J = B Φ_i + (∂(B v)/∂w) Ψ_i` (the warp's own derivative,
+//!   [`super::warp::warp_jacobian`]; `B Φ_i` alone, the Jacobian of the displacement with the
+//!   rotations frozen, makes an equilibrium under drags the stationary point of nothing); MWTS-RS the
+//!   reconstruction's exact rows ([`super::rotation_strain`]);
+//! - orientation drags `Ψ_i q = w*`, and frame drags `(1/n) Σ_{i∈S} Ψ_i q = w*` (one rotation for a
+//!   selection that turns as a whole): linear.
+//!
+//! Each drag is a spring of fixed compliance `ε_k` ([`ModalDynamics::compliances`]: `damping` times
+//! the drag's own response in the linear model, so positions and rotations each in their units). With
+//! `D = diag(h² / (1 + hc + h²λ))` the step's response to a modal force (`h² S⁻¹` for MWTS-RS), a
+//! constraint force `Jᵀμ` moves `q⁺ = q̂ + D Jᵀ μ`, and the multipliers solve
+//! `(J D Jᵀ + E) μ = t − o − J q̂`, `E = diag(ε_k)`. At a fixed point `μ_k = (t_k − c_k(q)) / ε_k` and
+//! `Λq = g + Jᵀμ`: with conservative loads, the stationary point of
+//! `E(q) + Σ_k |c_k(q) − t_k|² / 2ε_k`, which a test checks against a direct minimisation. With the
+//! default `damping = 1e-2` a reachable target is met to about 1%, and an unreachable one (a drag that
+//! over-determines the few modes) settles at the closest compromise instead of thrashing: a hard
+//! constraint (`damping → 0`) re-linearised every step makes such drags oscillate wildly.
+//!
+//! While position drags last, [`super::method`] adds the static responses to forces at the dragged
+//! vertices to the basis ([`super::ritz`]), so a local pull is followed by the shell's own local
+//! deformation instead of by huge amplitudes of a few global modes.
 
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 use nalgebra::{DMatrix, DVector};
 
 use super::basis::ModalBasis;
 use super::kernel::{ChunkedVectors, VertexPass};
 use super::rotation_strain::RotationStrain;
-use super::warp::warp_operator;
-use crate::solver::{Drag, DragKind, DragSet};
+use super::warp::{warp_jacobian, warp_operator};
+use crate::solver::{Drag, DragKind, DragSet, FrameDrag};
+
+/// A drag's constraint linearised at the current `q`: `o + J q = t`, the rows of `J` (x, y, z, each
+/// `m` long), the target `t` and the offset `o`.
+struct Linearised {
+    rows: Vec<f64>,
+    target: DVec3,
+    offset: DVec3,
+}
 
 /// Time-stepping parameters of the modal oscillators.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -179,7 +197,7 @@ impl ModalDynamics {
         };
         let mut q_hat: Vec<f64> = self.q.iter().zip(&v_hat).map(|(q, v)| q + h * v).collect();
         if !drags.is_empty() {
-            let correction = self.constraint_correction(&q_hat, &d, drags, p.constraint_damping);
+            let correction = self.constraint_correction(&q_hat, &d, drags, p);
             for j in 0..m {
                 q_hat[j] += correction[j];
                 v_hat[j] += correction[j] / h;
@@ -203,31 +221,34 @@ impl ModalDynamics {
         }
     }
 
-    /// `D Jᵀ μ` for the damped least-squares multipliers of the drag constraints.
-    fn constraint_correction(&mut self, q_hat: &[f64], d: &DMatrix<f64>, drags: &DragSet, damping: f64) -> Vec<f64> {
+    /// `D Jᵀ μ` for the multipliers of the drags as stiff springs (module documentation).
+    fn constraint_correction(&mut self, q_hat: &[f64], d: &DMatrix<f64>, drags: &DragSet, p: &ModalParams) -> Vec<f64> {
         let m = self.basis.modes();
-        let rows = 3 * drags.len();
-        let mut jac = DMatrix::<f64>::zeros(rows, m);
-        let mut rhs = DVector::<f64>::zeros(rows);
         if let Shape::RotationStrain(rs) = &mut self.shape {
             let dragged =
                 |v: usize| drags.iter().any(|(_, d)| d.vertex == v && matches!(d.kind, DragKind::Position(_)));
             rs.keep_drags(dragged);
         }
-        for (k, (_, drag)) in drags.iter().enumerate() {
-            let (block, target, offset) = self.linearisation(drag);
+        let compliances = self.compliances(p, drags);
+        let constraints: Vec<Linearised> = (drags.iter().map(|(_, d)| self.linearisation(d)).collect::<Vec<_>>())
+            .into_iter()
+            .chain(drags.frames().map(|(_, f)| self.frame_rows(f)))
+            .collect();
+        let rows = 3 * constraints.len();
+        let mut jac = DMatrix::<f64>::zeros(rows, m);
+        let mut rhs = DVector::<f64>::zeros(rows);
+        for (k, c) in constraints.iter().enumerate() {
             for a in 0..3 {
                 for j in 0..m {
-                    jac[(3 * k + a, j)] = block[a * m + j];
+                    jac[(3 * k + a, j)] = c.rows[a * m + j];
                 }
                 let jq: f64 = (0..m).map(|j| jac[(3 * k + a, j)] * q_hat[j]).sum();
-                rhs[3 * k + a] = target[a] - offset[a] - jq;
+                rhs[3 * k + a] = c.target[a] - c.offset[a] - jq;
             }
         }
         let jd = &jac * d;
         let mut s = &jd * jac.transpose();
-        let eps = damping * s.trace().max(f64::MIN_POSITIVE) / rows as f64;
-        for r in 0..rows {
+        for (r, eps) in compliances.iter().flat_map(|&e| [e; 3]).enumerate() {
             s[(r, r)] += eps;
         }
         match s.cholesky() {
@@ -236,26 +257,71 @@ impl ModalDynamics {
         }
     }
 
-    /// A drag's constraint linearised at the current `q`, `o + J q = t`: the rows of `J` (x, y, z, each
-    /// `m` long), the target `t` and the offset `o`.
-    fn linearisation(&mut self, drag: &Drag) -> (Vec<f64>, DVec3, DVec3) {
-        let (i, m) = (drag.vertex, self.basis.modes());
-        let rows_of = |map: DMat3, entry: &dyn Fn(usize, usize) -> f64| -> Vec<f64> {
-            (0..3 * m).map(|r| (0..3).map(|b| map.col(b)[r / m] * entry(b, r % m)).sum()).collect()
+    /// The compliance `ε_k` of every drag (single-vertex ones first, then frames): `damping` times the
+    /// mean diagonal of `L_k D₀ L_kᵀ`, with `L_k` the drag's rows of the *linear* model (`Φ_i`, `Ψ_i`,
+    /// or `Ψ` averaged over a frame) and `D₀ = diag(h² / (1 + hc_j + h²λ_j))` the step's response to a
+    /// modal force. It does not depend on `q`, so a drag is a fixed spring and an equilibrium under
+    /// drags is a stationary point of `E(q) + Σ_k |c_k(q) − t_k|² / 2ε_k`.
+    pub fn compliances(&self, p: &ModalParams, drags: &DragSet) -> Vec<f64> {
+        let h = p.step;
+        let response: Vec<f64> =
+            (self.basis.eigenvalues.iter()).map(|&l| h * h / (1.0 + h * (p.alpha + p.beta * l) + h * h * l)).collect();
+        let m = self.basis.modes();
+        let weigh = |rows: Vec<f64>| {
+            let trace: f64 = (0..3 * m).map(|r| rows[r] * rows[r] * response[r % m]).sum();
+            p.constraint_damping * (trace / 3.0).max(f64::MIN_POSITIVE)
         };
+        let single = drags.iter().map(|(_, d)| match d.kind {
+            DragKind::Position(_) => self.linear_rows(&[d.vertex], false),
+            DragKind::Orientation(_) => self.linear_rows(&[d.vertex], true),
+        });
+        let frames = drags.frames().map(|(_, f)| self.linear_rows(&f.vertices, true));
+        single.chain(frames).map(weigh).collect()
+    }
+
+    /// The rows (x, y, z, each `m` long) of `Φ` (or `Ψ` when `rotation`) averaged over `vertices`.
+    fn linear_rows(&self, vertices: &[usize], rotation: bool) -> Vec<f64> {
+        let m = self.basis.modes();
+        let entry = |i: usize, a: usize, j: usize| {
+            if rotation { self.basis.psi(i, a, j) } else { self.basis.phi(i, a, j) }
+        };
+        let n = vertices.len().max(1) as f64;
+        (0..3 * m).map(|r| vertices.iter().map(|&i| entry(i, r / m, r % m)).sum::<f64>() / n).collect()
+    }
+
+    /// A frame drag: the mean rotation of its vertices, `(1/n) Σ Ψ_i q = w*`, linear.
+    fn frame_rows(&self, frame: &FrameDrag) -> Linearised {
+        Linearised { rows: self.linear_rows(&frame.vertices, true), target: frame.rotation, offset: DVec3::ZERO }
+    }
+
+    /// A drag's constraint `c(q) = t` linearised at the current `q`, `o + J q = t` with `J = ∂c/∂q`.
+    fn linearisation(&mut self, drag: &Drag) -> Linearised {
+        let (i, m) = (drag.vertex, self.basis.modes());
         match (drag.kind, &mut self.shape) {
             (DragKind::Orientation(w), _) => {
-                (rows_of(DMat3::IDENTITY, &|b, j| self.basis.psi(i, b, j)), w, DVec3::ZERO)
+                Linearised { rows: self.linear_rows(&[i], true), target: w, offset: DVec3::ZERO }
             }
             (DragKind::Position(p), Shape::RotationStrain(rs)) => {
                 let rows = rs.position_rows(i, &self.q, &mut self.positions, &mut self.force);
                 let jq = DVec3::from_array([0, 1, 2].map(|a| (0..m).map(|j| rows[a * m + j] * self.q[j]).sum::<f64>()));
-                (rows, p - self.rest[i], self.positions[i] - self.rest[i] - jq)
+                Linearised { rows, target: p - self.rest[i], offset: self.positions[i] - self.rest[i] - jq }
             }
-            (DragKind::Position(p), shape) => {
-                let warped = matches!(shape, Shape::Warp);
-                let map = if warped { warp_operator(self.basis.rotation(i, &self.q)) } else { DMat3::IDENTITY };
-                (rows_of(map, &|b, j| self.basis.phi(i, b, j)), p - self.rest[i], DVec3::ZERO)
+            (DragKind::Position(p), Shape::Linear) => {
+                Linearised { rows: self.linear_rows(&[i], false), target: p - self.rest[i], offset: DVec3::ZERO }
+            }
+            (DragKind::Position(p), Shape::Warp) => {
+                // u = B(w) v with w = Ψ_i q, v = Φ_i q: J = B Φ_i + (∂u/∂w) Ψ_i.
+                let (w, v) = (self.basis.rotation(i, &self.q), self.basis.displacement(i, &self.q));
+                let (warp, turn) = (warp_operator(w), warp_jacobian(w, v));
+                let (phi, psi) = (self.linear_rows(&[i], false), self.linear_rows(&[i], true));
+                let rows: Vec<f64> = (0..3 * m)
+                    .map(|r| {
+                        let (a, j) = (r / m, r % m);
+                        (0..3).map(|b| warp.col(b)[a] * phi[b * m + j] + turn.col(b)[a] * psi[b * m + j]).sum()
+                    })
+                    .collect();
+                let jq = DVec3::from_array([0, 1, 2].map(|a| (0..m).map(|j| rows[a * m + j] * self.q[j]).sum::<f64>()));
+                Linearised { rows, target: p - self.rest[i], offset: warp * v - jq }
             }
         }
     }
@@ -373,5 +439,120 @@ mod tests {
             dynamics.step(&P, &drags);
         }
         assert!(dynamics.q.iter().all(|q| q.is_finite() && q.abs() < 1e3), "{:?}", dynamics.q);
+    }
+
+    /// Builds a modal method's shape for a scene and a basis.
+    type Shaper = fn(&crate::scene::Setup, &ModalBasis) -> Shape;
+
+    /// The cantilever strip without gravity on its `modes` lowest modes, as `shape`, with its tip
+    /// row (vertices 200–204) dragged to where a turn by `angle` about the strip's axis puts it and
+    /// the row's frame turned by `angle`.
+    fn twisted_strip(modes: usize, shape: Shaper, angle: f64) -> (ModalDynamics, DragSet) {
+        let setup = crate::scene::load("cantilever", &["gravity=[0, 0, 0]".into()]).unwrap();
+        let basis = crate::solver::modal::compute::analyse_scene(&setup, modes).unwrap().basis;
+        let rest = setup.mesh.positions().to_vec();
+        let shape = shape(&setup, &basis);
+        let dynamics = ModalDynamics::new(basis, rest.clone(), Vec::new(), shape);
+        let tip: Vec<usize> = (200..205).collect();
+        let centre = tip.iter().map(|&i| rest[i]).sum::<DVec3>() / 5.0;
+        let turn = glam::DQuat::from_rotation_x(angle);
+        let mut drags = DragSet::new(rest.len(), true);
+        for &i in &tip {
+            drags.add(Drag { vertex: i, kind: DragKind::Position(centre + turn * (rest[i] - centre)) }).unwrap();
+        }
+        drags.add_frame(FrameDrag { vertices: tip, rotation: DVec3::X * angle }).unwrap();
+        (dynamics, drags)
+    }
+
+    /// `E(q) + Σ |c_k(q) − t_k|² / 2ε_k` as least-squares residuals `r(q)` (`E = ½ qᵀΛq`), the
+    /// constraints evaluated through the positions the shape reconstructs.
+    fn residuals(d: &mut ModalDynamics, drags: &DragSet, eps: &[f64], q: &[f64]) -> Vec<f64> {
+        d.q = q.to_vec();
+        d.update_positions();
+        let mut r: Vec<f64> = q.iter().zip(&d.basis.eigenvalues).map(|(q, l)| q * l.sqrt()).collect();
+        let mut k = 0;
+        for (_, drag) in drags.iter() {
+            let DragKind::Position(t) = drag.kind else { unreachable!() };
+            r.extend((d.positions()[drag.vertex] - t).to_array().map(|x| x / eps[k].sqrt()));
+            k += 1;
+        }
+        for (_, f) in drags.frames() {
+            let w = f.vertices.iter().map(|&i| d.basis.rotation(i, q)).sum::<DVec3>() / f.vertices.len() as f64;
+            r.extend((w - f.rotation).to_array().map(|x| x / eps[k].sqrt()));
+            k += 1;
+        }
+        r
+    }
+
+    /// Minimise `½|r(q)|²` directly: Levenberg–Marquardt with central-difference Jacobians, from rest.
+    fn minimise(d: &mut ModalDynamics, drags: &DragSet, eps: &[f64]) -> Vec<f64> {
+        let m = d.basis.modes();
+        let mut q = vec![0.0; m];
+        let mut mu = 1e-3;
+        let cost = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
+        for _ in 0..500 {
+            let r = DVector::from_vec(residuals(d, drags, eps, &q));
+            let mut jac = DMatrix::<f64>::zeros(r.len(), m);
+            for j in 0..m {
+                let step = 1e-6 * q[j].abs().max(1e-3);
+                let (mut a, mut b) = (q.clone(), q.clone());
+                a[j] += step;
+                b[j] -= step;
+                let (ra, rb) = (residuals(d, drags, eps, &a), residuals(d, drags, eps, &b));
+                (0..r.len()).for_each(|i| jac[(i, j)] = (ra[i] - rb[i]) / (2.0 * step));
+            }
+            let (jtj, jtr) = (jac.transpose() * &jac, jac.transpose() * &r);
+            let scale = (0..m).map(|j| jtj[(j, j)]).fold(0.0, f64::max);
+            if mu > 1e8 {
+                break; // no step lowers the cost any more: converged to round-off
+            }
+            let dq = (jtj + DMatrix::identity(m, m) * (mu * scale)).cholesky().unwrap().solve(&(-jtr));
+            let trial: Vec<f64> = q.iter().zip(dq.iter()).map(|(a, b)| a + b).collect();
+            if cost(&residuals(d, drags, eps, &trial)) < cost(r.as_slice()) {
+                let small = dq.norm() < 1e-14 * DVector::from_column_slice(&trial).norm();
+                (q, mu) = (trial, (mu * 0.3).max(1e-12));
+                if small {
+                    break;
+                }
+            } else {
+                mu *= 10.0;
+            }
+        }
+        q
+    }
+
+    #[test]
+    fn the_drags_equilibrium_is_the_minimum_of_energy_plus_penalty() {
+        let rs: Shaper = |s, b| Shape::RotationStrain(Box::new(RotationStrain::new(&s.mesh, &s.anchors, b).unwrap()));
+        let shapes: [(Shaper, &str); 3] =
+            [(|_, _| Shape::Warp, "mwts"), (|_, _| Shape::Linear, "lma"), (rs, "mwts-rs")];
+        for (shape, name) in shapes {
+            for angle in [5f64.to_radians(), 90f64.to_radians()] {
+                for damping in [1e-2, 1e-4] {
+                    let (mut d, drags) = twisted_strip(32, shape, angle);
+                    let p = ModalParams { step: 1.0 / 30.0, alpha: 8.0, beta: 0.0, constraint_damping: damping };
+                    let mut last = f64::INFINITY;
+                    for _ in 0..20_000 {
+                        let before = d.q.clone();
+                        d.step(&p, &drags);
+                        last = d.q.iter().zip(&before).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+                        if last < 1e-15 {
+                            break;
+                        }
+                    }
+                    let stepped = d.q.clone();
+                    let eps = d.compliances(&p, &drags);
+                    let direct = minimise(&mut d, &drags, &eps);
+                    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    let diff: Vec<f64> = stepped.iter().zip(&direct).map(|(a, b)| a - b).collect();
+                    let rel = norm(&diff) / norm(&direct);
+                    eprintln!(
+                        "{name} {:.0}° damping {damping:e}: |q − q_min|/|q_min| = {rel:.2e} (last move {last:.1e})",
+                        angle.to_degrees()
+                    );
+                    assert!(rel < 1e-6, "{name} {:.0}°, damping {damping}: {rel:.2e}", angle.to_degrees());
+                }
+            }
+        }
     }
 }

@@ -18,6 +18,7 @@ use super::basis::ModalBasis;
 use super::cache::Cache;
 use super::compute::{ModalAnalysis, ModalProblem, analyse};
 use super::dynamics::{ModalDynamics, ModalParams, Shape};
+use super::ritz::{self, StaticResponse};
 use super::rotation_strain::RotationStrain;
 use super::supersede::{Generation, unless_superseded};
 use crate::energy::ShellStiffness;
@@ -25,7 +26,7 @@ use crate::mesh::TriMesh;
 use crate::scene::Setup;
 use crate::solver::registry::Method;
 use crate::solver::wind::{self, Wind};
-use crate::solver::{DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
+use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
 
 /// Registry entry: linear modal analysis.
 pub const LMA: Method = Method {
@@ -158,17 +159,21 @@ impl Request {
         self.area.iter().map(|a| a * self.density).collect()
     }
 
-    /// Cached or freshly computed (and then cached) modes.
-    fn run(&self, progress: &dyn Fn(f32)) -> Result<ModalAnalysis, SolverError> {
-        let masses = self.masses();
-        let problem = ModalProblem {
+    fn problem<'a>(&'a self, masses: &'a [f64]) -> ModalProblem<'a> {
+        ModalProblem {
             mesh: &self.mesh,
             anchors: &self.anchors,
-            masses: &masses,
+            masses,
             stiffness: self.stiffness,
             modes: self.modes,
             keep_rigid: self.keep_rigid,
-        };
+        }
+    }
+
+    /// Cached or freshly computed (and then cached) modes.
+    fn run(&self, progress: &dyn Fn(f32)) -> Result<ModalAnalysis, SolverError> {
+        let masses = self.masses();
+        let problem = self.problem(&masses);
         if let Some(a) = self.cache.load(&problem) {
             return Ok(a);
         }
@@ -193,6 +198,12 @@ pub struct ModalSolver {
     dynamics: ModalDynamics,
     analysis: ModalAnalysis,
     drags: DragSet,
+    /// The static responses of the current analysis's shell (built at the first position drag).
+    response: Option<StaticResponse>,
+    /// The groups of dragged vertices whose responses are in the dynamics' basis.
+    groups: Vec<Vec<usize>>,
+    /// The drag revision the basis was last fitted to.
+    drag_revision: Option<u64>,
     steps: u64,
     pending: Option<Pending>,
     generation: Generation,
@@ -243,6 +254,9 @@ impl ModalSolver {
             params,
             analysis,
             drags: DragSet::new(setup.mesh.vertex_count(), true),
+            response: None,
+            groups: Vec::new(),
+            drag_revision: None,
             steps: 0,
             pending: None,
             generation: Generation::default(),
@@ -281,6 +295,38 @@ impl ModalSolver {
         let forces = self.wind.forces(time, (x, &v), self.request.mesh.triangles(), &self.scene_forces());
         self.dynamics.hold_forces(&forces);
         self.blown = !calm;
+    }
+
+    /// Fit the basis to the position drags: the modes plus the static responses to forces at the
+    /// dragged vertices while any are dragged ([`super::ritz`]), the modes alone when none are.
+    fn follow_drags(&mut self) -> Result<(), SolverError> {
+        if self.drag_revision == Some(self.drags.revision()) {
+            return Ok(());
+        }
+        self.drag_revision = Some(self.drags.revision());
+        let mut dragged: Vec<usize> = Vec::new();
+        for (_, d) in self.drags.iter() {
+            if matches!(d.kind, DragKind::Position(_)) && !dragged.contains(&d.vertex) {
+                dragged.push(d.vertex);
+            }
+        }
+        let groups = ritz::groups(&dragged);
+        if groups == self.groups {
+            return Ok(());
+        }
+        let basis = if groups.is_empty() {
+            self.analysis.basis.clone()
+        } else {
+            if self.response.is_none() {
+                let masses = self.request.masses();
+                self.response = Some(StaticResponse::new(&self.request.problem(&masses))?);
+            }
+            let response = self.response.as_ref().ok_or_else(stopped)?;
+            response.augment(&self.analysis.basis, &self.request.mesh, &groups)?
+        };
+        self.dynamics.replace_basis(basis, &self.request.masses());
+        self.groups = groups;
+        Ok(())
     }
 
     /// Start recomputing the modes for the current parameters on a background thread.
@@ -324,6 +370,8 @@ impl ModalSolver {
         let masses = self.request.masses();
         self.dynamics.replace_basis(analysis.basis.clone(), &masses);
         self.analysis = analysis;
+        // The responses belong to the old shell: refit them to the new one at the next step.
+        (self.response, self.groups, self.drag_revision) = (None, Vec::new(), None);
         Ok(())
     }
 }
@@ -352,6 +400,7 @@ impl Solver for ModalSolver {
     fn step(&mut self) -> Result<StepStats, SolverError> {
         let start = Instant::now();
         self.poll_pending()?;
+        self.follow_drags()?;
         self.blow();
         self.previous.copy_from_slice(self.dynamics.positions());
         self.dynamics.step(&self.params, &self.drags);
@@ -454,7 +503,10 @@ impl Solver for ModalSolver {
     }
 
     fn info(&self) -> Vec<(&'static str, f64)> {
-        vec![("active modes", self.analysis.basis.modes() as f64)]
+        vec![
+            ("active modes", self.analysis.basis.modes() as f64),
+            ("drag modes", (self.dynamics.basis.modes() - self.analysis.basis.modes()) as f64),
+        ]
     }
 }
 

@@ -8,6 +8,7 @@ pub mod dynamics;
 pub mod kernel;
 pub mod laplacian;
 pub mod method;
+pub mod ritz;
 pub mod rotation;
 pub mod rotation_strain;
 pub mod rs_pass;

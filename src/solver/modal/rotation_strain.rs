@@ -70,6 +70,11 @@ pub const DRAG_TURN: f64 = 0.25;
 /// position drags' Jacobian rows were computed before they are computed again, rad.
 pub const ROWS_TURN: f64 = 0.01;
 
+/// The drags' rows are also recomputed once the shell moves this many times less per step than it
+/// has since they were computed: settling, so that an equilibrium under drags is linearised about
+/// itself (a stationary point of the energy plus the drags' penalty, not of a nearby linearisation).
+pub const SETTLED_ROWS: f64 = 64.0;
+
 /// The reconstruction and its adjoint for one mesh, its anchors and a modal basis.
 #[derive(Debug)]
 pub struct RotationStrain {
@@ -86,6 +91,8 @@ pub struct RotationStrain {
     drags: Vec<DragRows>,
     /// The `q` at which the drags' rows were computed (empty: never, or a drag or basis changed).
     rows_at: Vec<f64>,
+    /// The `q` of the previous update.
+    updated_at: Vec<f64>,
     /// The relaxation of steps under position drags, and the last step it allowed
     /// ([`RotationStrain::drag_trust`]).
     relax: f64,
@@ -113,6 +120,7 @@ impl RotationStrain {
             centroid_modes: Vec::new(),
             drags: Vec::new(),
             rows_at: Vec::new(),
+            updated_at: Vec::new(),
             relax: 1.0,
             last_step: Vec::new(),
             stiffness: None,
@@ -158,7 +166,10 @@ impl RotationStrain {
     /// position with them, so older rows change how fast it converges, not where it settles).
     pub fn update(&mut self, q: &[f64], positions: &mut [DVec3], force: &mut [f64]) {
         let moved = |at: &[f64]| q.iter().zip(at).zip(&self.scales).map(|((a, b), s)| (a - b).abs() * s).sum::<f64>();
-        let due = !self.drags.is_empty() && (self.rows_at.len() != q.len() || moved(&self.rows_at) > ROWS_TURN);
+        let (age, step) = (moved(&self.rows_at), moved(&self.updated_at));
+        let settling = age > SETTLED_ROWS * step && age > 1e-13;
+        let due = !self.drags.is_empty() && (self.rows_at.len() != q.len() || age > ROWS_TURN || settling);
+        self.updated_at = q.to_vec();
         let drags = if due { &mut self.drags[..] } else { &mut [] };
         self.pass.run(q, &self.loads, Some(self.laplacian.rhs_mut()), force, drags);
         if due {

@@ -87,6 +87,34 @@ pub fn coefficients(theta2: f64) -> [f64; 3] {
     [1.0 - theta2 * c, b, c]
 }
 
+/// `[db/dt, dc/dt]` for `t = θ² = theta2`, the derivatives of the coefficients `b` and `c` of
+/// [`coefficients`] (the series below π, else the closed forms
+/// `db/dt = (θ sinθ − 2(1 − cosθ)) / 2θ⁴`, `dc/dt = (θ(1 − cosθ) − 3(θ − sinθ)) / 2θ⁵`).
+pub fn derivatives(theta2: f64) -> [f64; 2] {
+    if past_series(theta2) {
+        let th = theta2.sqrt();
+        let (s, c) = th.sin_cos();
+        let t2 = theta2 * theta2;
+        return [(th * s - 2.0 * (1.0 - c)) / (2.0 * t2), (th * (1.0 - c) - 3.0 * (th - s)) / (2.0 * t2 * th)];
+    }
+    let derivative = |series: &[f64]| (1..series.len()).rev().fold(0.0, |acc, k| acc * theta2 + k as f64 * series[k]);
+    [derivative(&B_SERIES), derivative(&C_SERIES)]
+}
+
+/// `∂/∂w [(∫₀¹ exp(s[w]×) ds) v]` at fixed `v`: how the warped displacement of a vertex moves with
+/// its rotation vector (`mwts`'s position drags need it beside `∂/∂v`, which is the warp operator).
+/// With `u = v + b (w × v) + c (w × (w × v))`, `t = |w|²`:
+/// `∂u/∂w = 2b′ (w × v) wᵀ − b [v]× + 2c′ (w × (w × v)) wᵀ − c ([w × v]× + [w]× [v]×)`.
+pub fn warp_jacobian(w: DVec3, v: DVec3) -> DMat3 {
+    let t = w.length_squared();
+    let [_, b, c] = coefficients(t);
+    let [db, dc] = derivatives(t);
+    let (wv, wwv) = (w.cross(v), w.cross(w.cross(v)));
+    let outer = |a: DVec3| DMat3::from_cols(a * w.x, a * w.y, a * w.z);
+    outer(wv) * (2.0 * db) - cross_matrix(v) * b + outer(wwv) * (2.0 * dc)
+        - (cross_matrix(wv) + cross_matrix(w) * cross_matrix(v)) * c
+}
+
 /// The coefficients in closed form (accurate away from `θ = 0`).
 pub(crate) fn closed(theta2: f64) -> [f64; 3] {
     let th = theta2.sqrt();
@@ -153,6 +181,36 @@ mod tests {
         let tiny = 1e-4;
         assert!((coefficients(tiny * tiny)[2] - (1.0 / 6.0 - tiny * tiny / 120.0)).abs() < 1e-17);
         assert_eq!(coefficients(0.0), [1.0, 0.5, 1.0 / 6.0]);
+    }
+
+    #[test]
+    fn the_warps_jacobian_matches_central_differences() {
+        // Small, moderate, past π and past 2π, with the series/closed switch crossed by the differences.
+        let v = DVec3::new(0.2, 0.9, -0.4);
+        for w in [
+            DVec3::new(1e-3, -2e-3, 5e-4),
+            DVec3::new(0.7, -2.1, 1.3),
+            DVec3::new(0.0, 0.0, 0.999 * SERIES_BELOW),
+            DVec3::new(4.0, 1.0, -5.0),
+        ] {
+            let analytic = warp_jacobian(w, v);
+            for a in 0..3 {
+                let mut e = DVec3::ZERO;
+                e[a] = 1e-6 * w.length().max(1.0);
+                let fd = (warp_operator(w + e) * v - warp_operator(w - e) * v) / (2.0 * e[a]);
+                let err = (fd - analytic.col(a)).length() / analytic.col(a).length().max(1e-3);
+                assert!(err < 1e-6, "w = {w}, column {a}: {} vs {fd} (relative {err:.1e})", analytic.col(a));
+            }
+        }
+        // The series' derivatives agree with the closed forms where both are accurate.
+        for theta in [0.5, 1.5, 0.999 * SERIES_BELOW] {
+            let t = theta * theta;
+            let (th, (s, c)) = (theta, theta.sin_cos());
+            let closed =
+                [(th * s - 2.0 * (1.0 - c)) / (2.0 * t * t), (th * (1.0 - c) - 3.0 * (th - s)) / (2.0 * t * t * th)];
+            let series = derivatives(t);
+            assert!((series[0] - closed[0]).abs() < 1e-13 && (series[1] - closed[1]).abs() < 1e-13, "{theta}");
+        }
     }
 
     #[test]
