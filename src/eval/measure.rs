@@ -9,7 +9,8 @@ use glam::DVec3;
 pub use crate::solver::run::{Outcome, REST_STEPS, Run, Stop, distance, run, run_driven};
 
 use super::EvalError;
-use crate::scene::{self, Setup};
+use crate::scene::{self, Key, Selection, Setup, Track};
+use crate::solver::modal::cache::Cache;
 use crate::solver::modal::compute::{ModalAnalysis, analyse_scene};
 use crate::solver::{self, Solver};
 
@@ -71,6 +72,70 @@ pub fn reference(scene_name: &str, overrides: &[String]) -> Result<Reference, Ev
         iterations: stats.iterations,
         wall: start.elapsed().as_secs_f64(),
     })
+}
+
+/// Give `setup` a track on `vertices` with `keys` (as a scene's `[[tracks]]` entry would).
+pub fn add_track(setup: &mut Setup, vertices: Vec<usize>, keys: Vec<Key>) {
+    let select = Selection { aabb: None, indices: Some(vertices.clone()) };
+    setup.scene.tracks.push(Track { select, pivot: None, keys, joint: None, looping: false });
+    setup.tracks.push(vertices);
+}
+
+/// The steps of 1/30 s in which `ds-static` walks a motion that moves a vertex by `length` metres
+/// and turns by `degrees`: at most 1 cm and 6° a step.
+pub fn walk_steps(length: f64, degrees: f64) -> usize {
+    (length / 0.01).max(degrees / 6.0).ceil().max(1.0) as usize
+}
+
+/// The vertices at the largest rest `x`: the tip row of a strip clamped at its smallest `x`.
+pub fn tip_row(rest: &[DVec3]) -> Vec<usize> {
+    let end = rest.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max);
+    (0..rest.len()).filter(|&i| rest[i].x > end - 1e-9).collect()
+}
+
+/// Give `setup` one track turning its tip row by `degrees` about the strip's axis (x) over
+/// `seconds`, the row's place held (positions and rotation keys: every method follows it).
+pub fn twist_tip(setup: &mut Setup, degrees: f64, seconds: f64) {
+    let tip = tip_row(setup.mesh.positions());
+    let key =
+        |time: f64, angle: f64| Key { time, position: Some([0.0; 3]), rotation: Some([angle.to_radians(), 0.0, 0.0]) };
+    add_track(setup, tip, vec![key(0.0, 0.0), key(seconds, degrees)]);
+}
+
+/// `ds-static` walked through the motion of `setup`'s tracks in `steps` steps of 1/30 s (the tracks'
+/// keys must reach their last at `steps / 30` s), then held for three more: the reference of a
+/// dragged or twisted shell, and whether its last step converged. Cached in the modal cache's folder
+/// (`references/`), keyed by the scene as realised and this program's version, so that the cases
+/// of one motion share it; written atomically.
+pub fn walked_reference(setup: &Setup, steps: usize) -> Result<(Vec<DVec3>, bool), EvalError> {
+    let mut s = setup.clone();
+    s.scene.solver.method = "ds-static".into();
+    let text = format!("{}|{:?}|{steps}", env!("CARGO_PKG_VERSION"), s.scene);
+    let hash = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3));
+    let file = Cache::from_env().dir().map(|d| d.join("references").join(format!("{}-{hash:016x}.json", s.scene.name)));
+    let cached = file.as_ref().and_then(|f| std::fs::read_to_string(f).ok());
+    if let Some(Ok((x, converged))) = cached.map(|c| serde_json::from_str::<(Vec<[f64; 3]>, bool)>(&c)) {
+        return Ok((x.into_iter().map(DVec3::from).collect(), converged));
+    }
+    let mut solver = build(&s)?;
+    let mut converged = false;
+    for _ in 0..steps + 3 {
+        converged = solver
+            .step()
+            .map_err(EvalError::solver(format!("ds-static through the motion on {}", s.scene.name)))?
+            .converged;
+    }
+    let x = solver.positions().to_vec();
+    if let Some(file) = file {
+        let text =
+            serde_json::to_string(&(x.iter().map(|p| p.to_array()).collect::<Vec<_>>(), converged)).unwrap_or_default();
+        let tmp = file.with_extension(format!("json.{}.tmp", std::process::id()));
+        let written = file.parent().map(std::fs::create_dir_all).transpose().and_then(|_| std::fs::write(&tmp, text));
+        if written.is_ok() {
+            let _ = std::fs::rename(&tmp, &file);
+        }
+    }
+    Ok((x, converged))
 }
 
 /// The modal analysis of a shell scene with `modes` modes, computed afresh (never from the cache).

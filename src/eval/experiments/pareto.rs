@@ -6,9 +6,8 @@
 //! - `beam`: the flat `cantilever` under 2.5 g, run from rest to rest (critical damping of the lowest
 //!   mode); reference `ds-static`.
 //! - `twist`: the same strip without gravity, its tip row turned by 90° about the beam's axis over the
-//!   first 0.5 s and held, to rest; modal methods by orientation drags on the tip row, the discrete
-//!   shells (which have no orientation drags) by position drags on the rigidly turned tip row;
-//!   reference `ds-static` walked through the same turn in 10° steps.
+//!   first 0.5 s and held, to rest, by one track that every method follows (positions and the turn);
+//!   reference `ds-static` walked through the same turn in 6° steps.
 //! - `drape`: the 961-particle `drape`, 1 s of simulated time (the cloth has reached the ball and
 //!   folds); reference `cloth` at h = 1/1600 s and PCG tolerance 1e-5. Beside the implicit cloth, XPBD
 //!   with the same stiffnesses (substeps and sweeps) and PBD with its own per-sweep stiffness
@@ -16,7 +15,7 @@
 
 use std::path::Path;
 
-use glam::{DQuat, DVec3};
+use glam::DVec3;
 
 use super::super::chart::{Axis, Plot, Series, Style, method_color};
 use super::super::measure::{self, Run, Stop};
@@ -24,7 +23,7 @@ use super::super::report::{Section, bold};
 use super::super::table::{Column, Table, computed, timed};
 use super::super::{EvalError, Experiment};
 use super::chart_ref;
-use crate::solver::{Drag, DragKind, Solver, SolverError, registry};
+use crate::solver::registry;
 
 /// The experiment.
 pub struct Pareto;
@@ -141,13 +140,12 @@ fn points(quick: bool) -> Vec<Point> {
 /// Families: title, and the scene each runs.
 const FAMILIES: [(&str, &str); 3] = [
     ("beam", "beam under 2.5 g (cantilever strip)"),
-    ("twist", "beam twisted 90° by a drag"),
+    ("twist", "beam twisted 90° by a track"),
     ("drape", "cloth draped on a ball (961 particles)"),
 ];
 
 const BEAM_GRAVITY: f64 = 2.5 * 9.81;
-const TWIST: f64 = std::f64::consts::FRAC_PI_2;
-const TWIST_RAMP: f64 = 0.5;
+const TWIST_DEGREES: f64 = 90.0;
 const DRAPE_TIME: f64 = 1.0;
 
 impl Experiment for Pareto {
@@ -201,9 +199,10 @@ impl Experiment for Pareto {
             setup: "Cost: wall-clock seconds per simulated second, one thread. Error: ‖u − u_ref‖ / ‖u_ref‖ over all \
                     vertices against the family's reference. `beam`: the flat cantilever under 2.5 g, run to rest \
                     (critical damping of its lowest mode), reference `ds-static`. `twist`: the strip without gravity, \
-                    tip row turned 90° about its axis over 0.5 s and held, run to rest — modal methods by orientation \
-                    drags, discrete shells by position drags on the turned tip row; reference `ds-static` walked \
-                    through the turn in 10° steps. `drape`: the 961-particle drape after 1 s; reference `cloth` at \
+                    tip row turned 90° about its axis over 0.5 s by one track (the row's place and its turn) and \
+                    held, run to rest — every method by the same track (the modal methods take the turn as one \
+                    frame orientation, the discrete shells as the row's turned positions); reference `ds-static` \
+                    walked through the turn in 6° steps by the same track. `drape`: the 961-particle drape after 1 s; reference `cloth` at \
                     h = 1/1600 s, PCG tolerance 1e-5; `xpbd` with the same stiffnesses (its edges also resist \
                     compression, the cloth's buckle), `pbd` with per-sweep stiffness fractions, so their error \
                     includes the difference of models. A point is on the front when no other point of its family is \
@@ -228,18 +227,8 @@ impl Experiment for Pareto {
                 continue;
             }
             let point = |i: usize| (table.rows[i][ci].num(), table.rows[i][ei].num());
-            let mut front: Vec<usize> = members
-                .iter()
-                .copied()
-                .filter(|&i| {
-                    let (c, e) = point(i);
-                    !members.iter().any(|&j| {
-                        let (cj, ej) = point(j);
-                        j != i && cj <= c && ej <= e && (cj < c || ej < e)
-                    })
-                })
-                .collect();
-            front.sort_by(|a, b| point(*a).0.total_cmp(&point(*b).0));
+            let front: Vec<usize> =
+                front(&members.iter().map(|&i| point(i)).collect::<Vec<_>>()).into_iter().map(|k| members[k]).collect();
             let mut methods: Vec<String> = members.iter().map(|&i| table.rows[i][mi].text()).collect();
             methods.dedup();
             let mut series: Vec<Series> = methods
@@ -285,10 +274,17 @@ impl Experiment for Pareto {
     }
 }
 
-/// The tip row of a strip clamped at its smallest x: the vertices at the largest rest x.
-fn tip_row(rest: &[DVec3]) -> Vec<usize> {
-    let end = rest.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max);
-    (0..rest.len()).filter(|&i| rest[i].x > end - 1e-9).collect()
+/// The points (cost, error) no other point beats in both (cheaper or as cheap, and more accurate or
+/// as accurate, and better in one), cheapest first: their indices.
+pub(super) fn front(points: &[(f64, f64)]) -> Vec<usize> {
+    let mut front: Vec<usize> = (0..points.len())
+        .filter(|&i| {
+            let (c, e) = points[i];
+            !points.iter().enumerate().any(|(j, &(cj, ej))| j != i && cj <= c && ej <= e && (cj < c || ej < e))
+        })
+        .collect();
+    front.sort_by(|a, b| points[*a].0.total_cmp(&points[*b].0));
+    front
 }
 
 type Measured = ((Vec<DVec3>, bool), Run, Vec<DVec3>);
@@ -311,57 +307,24 @@ fn beam(point: &Point) -> Result<Measured, EvalError> {
     Ok(((reference.positions, reference.converged), run, rest))
 }
 
-/// Set (first call) or move the twist drags to the turn `angle` about the tip row's axis: orientation
-/// drags where the method has them, else position drags on the turned row.
-fn twist_drags(solver: &mut dyn Solver, rest: &[DVec3], tip: &[usize], angle: f64) -> Result<(), SolverError> {
-    let centre = tip.iter().map(|&i| rest[i]).sum::<DVec3>() / tip.len() as f64;
-    let turned = |i: usize| DragKind::Position(centre + DQuat::from_rotation_x(angle) * (rest[i] - centre));
-    let existing: Vec<_> = solver.drags().iter().map(|(id, d)| (*id, d.kind)).collect();
-    if existing.is_empty() {
-        let first = Drag { vertex: tip[0], kind: DragKind::Orientation(DVec3::X * angle) };
-        let orientation = solver.drags_mut().add(first).is_ok();
-        for &i in &tip[usize::from(orientation)..] {
-            let kind = if orientation { DragKind::Orientation(DVec3::X * angle) } else { turned(i) };
-            solver.drags_mut().add(Drag { vertex: i, kind })?;
-        }
-        return Ok(());
-    }
-    for ((id, kind), &i) in existing.into_iter().zip(tip) {
-        let kind = match kind {
-            DragKind::Orientation(_) => DragKind::Orientation(DVec3::X * angle),
-            DragKind::Position(_) => turned(i),
-        };
-        solver.drags_mut().retarget(id, kind)?;
-    }
-    Ok(())
-}
-
 fn twist(point: &Point) -> Result<Measured, EvalError> {
     let zero_g = vec!["gravity=[0, 0, 0]".to_string()];
-    // Reference: ds-static walked through the turn in 10° steps.
-    let s = measure::setup("cantilever", "ds-static", &zero_g)?;
+    // Reference: ds-static walked through the turn in steps of 6°, by the same track.
+    let steps = measure::walk_steps(0.0, TWIST_DEGREES);
+    let seconds = steps as f64 / 30.0;
+    let mut s = measure::setup("cantilever", "ds-static", &zero_g)?;
     let rest = s.mesh.positions().to_vec();
-    let tip = tip_row(&rest);
-    let mut reference = measure::build(&s)?;
-    let mut converged = true;
-    for k in 1..=9 {
-        twist_drags(reference.as_mut(), &rest, &tip, TWIST * k as f64 / 9.0)
-            .map_err(EvalError::solver("twisting ds-static"))?;
-        let stats = reference.step().map_err(EvalError::solver("ds-static through the twist"))?;
-        converged = stats.converged;
-    }
+    measure::twist_tip(&mut s, TWIST_DEGREES, seconds);
+    let reference = measure::walked_reference(&s, steps)?;
     let mut over = zero_g.clone();
     let (alpha, omega) = measure::critical_damping(&s)?;
     over.push(format!("solver.rayleigh_alpha={alpha}"));
     over.extend(point.overrides.iter().cloned());
-    let s = measure::setup("cantilever", point.method, &over)?;
-    let mut solver = measure::build(&s)?;
-    let stop = Stop { max_time: TWIST_RAMP + 40.0 / omega, max_steps: u64::MAX, rest: 1e-7 };
-    let run = measure::run_driven(solver.as_mut(), &rest, stop, &mut |solver, t| {
-        let angle = TWIST * ((t + solver.time_step()) / TWIST_RAMP).min(1.0);
-        twist_drags(solver, &rest, &tip, angle)
-    });
-    Ok(((reference.positions().to_vec(), converged), run, rest))
+    let mut s = measure::setup("cantilever", point.method, &over)?;
+    measure::twist_tip(&mut s, TWIST_DEGREES, seconds);
+    let stop = Stop { max_time: seconds + 40.0 / omega, max_steps: u64::MAX, rest: 1e-7 };
+    let run = measure::run(measure::build(&s)?.as_mut(), &rest, stop);
+    Ok((reference, run, rest))
 }
 
 fn drape(point: &Point) -> Result<Measured, EvalError> {

@@ -68,6 +68,11 @@ impl Cache {
         Self { dir: None }
     }
 
+    /// The cache's folder, if caching is on.
+    pub fn dir(&self) -> Option<&std::path::Path> {
+        self.dir.as_deref()
+    }
+
     /// The file that holds (or would hold) the analysis of `p`.
     pub fn path(&self, p: &ModalProblem<'_>) -> Option<PathBuf> {
         Some(self.dir.as_ref()?.join(format!("modes-{:016x}.bin", key(p))))
