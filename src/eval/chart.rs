@@ -7,10 +7,11 @@ use std::path::Path;
 use std::sync::Once;
 
 use image::{RgbImage, RgbaImage};
-use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::coord::ranged1d::{AsRangedCoord, DefaultFormatting, KeyPointHint, Ranged, ValueFormatter};
 use plotters::prelude::*;
 
 use super::EvalError;
+use super::typeset::Typeset;
 
 /// Size of every chart, pixels.
 pub const SIZE: (u32, u32) = (960, 600);
@@ -18,7 +19,7 @@ pub const SIZE: (u32, u32) = (960, 600);
 /// The font family name the charts use (registered from egui's bundled Ubuntu Light).
 const FONT: &str = "sans-serif";
 
-fn register_font() {
+pub(crate) fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The bytes are a valid TrueType font compiled into egui; failure would be a build defect,
@@ -132,11 +133,15 @@ impl Plot {
         let points = || self.series.iter().flat_map(|s| s.points.iter().copied());
         let xr = extent(points().map(|p| p.0), self.x.log);
         let yr = extent(points().map(|p| p.1), self.y.log);
+        let log = |r: &Range<f64>| {
+            let (bold, light) = log_ticks(r);
+            r.clone().log_scale().with_key_points(bold).with_light_points(light)
+        };
         draw_png(path, None, |root| match (self.x.log, self.y.log) {
-            (false, false) => self.draw(root, xr, yr),
-            (true, false) => self.draw(root, xr.log_scale(), yr),
-            (false, true) => self.draw(root, xr, yr.log_scale()),
-            (true, true) => self.draw(root, xr.log_scale(), yr.log_scale()),
+            (false, false) => self.draw(root, xr.clone(), yr.clone()),
+            (true, false) => self.draw(root, log(&xr), yr.clone()),
+            (false, true) => self.draw(root, xr.clone(), log(&yr)),
+            (true, true) => self.draw(root, log(&xr), log(&yr)),
         })
     }
 
@@ -241,6 +246,27 @@ impl Plot {
     }
 }
 
+/// The labelled and the grid-only values of a log axis over `range`: every decade, and 2× and 5×
+/// each decade where the axis spans under two decades (every integer multiple under one); the grid
+/// at every integer multiple.
+fn log_ticks(range: &Range<f64>) -> (Vec<f64>, Vec<f64>) {
+    let (lo, hi) = (range.start.max(f64::MIN_POSITIVE), range.end.max(f64::MIN_POSITIVE));
+    let decades = (hi / lo).log10();
+    let labelled: &[f64] = if decades < 1.0 {
+        &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]
+    } else if decades < 2.0 {
+        &[1.0, 2.0, 5.0]
+    } else {
+        &[1.0]
+    };
+    let (first, last) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    let within = |v: &f64| *v >= lo * (1.0 - 1e-12) && *v <= hi * (1.0 + 1e-12);
+    let at = |multiples: &[f64]| -> Vec<f64> {
+        (first..=last).flat_map(|k| multiples.iter().map(move |m| m * 10f64.powi(k))).filter(within).collect()
+    };
+    (at(labelled), at(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]))
+}
+
 /// Tick label: plain for moderate magnitudes, scientific otherwise.
 fn tick(v: f64) -> String {
     let a = v.abs();
@@ -309,30 +335,28 @@ impl Maps {
         let rows = self.panels.len().div_ceil(per_row).max(1);
         let areas = body.split_evenly((rows, per_row));
         for (panel, area) in self.panels.iter().zip(&areas) {
-            let (nx, ny) = (panel.columns.len().max(1) as u32, panel.rows.len().max(1) as u32);
+            let (nx, ny) = (panel.columns.len().max(1), panel.rows.len().max(1));
+            // Cells are unit squares on continuous axes (a single row or column is a panel like any
+            // other); the labels sit at the cells' centres, at most about six along x.
+            let every = nx.div_ceil(6).max(1);
+            let centres = |n: usize, every: usize| (0..n).step_by(every).map(|i| i as f64 + 0.5).collect::<Vec<f64>>();
             let mut chart = ChartBuilder::on(area)
                 .caption(&panel.title, (FONT, 17))
                 .margin(6)
                 .x_label_area_size(40)
                 .y_label_area_size(48)
-                // A segmented `0..n` range holds the segments 0 to n inclusive: one more than wanted.
-                .build_cartesian_2d((0..nx - 1).into_segmented(), (0..ny - 1).into_segmented())
+                .build_cartesian_2d(
+                    CellAxis { cells: nx as f64, keys: centres(nx, every) },
+                    CellAxis { cells: ny as f64, keys: centres(ny, 1) },
+                )
                 .map_err(|x| e(&x))?;
-            // At most about six labels along x (every k-th column).
-            let every = panel.columns.len().div_ceil(6).max(1);
-            let label = |labels: &[String], v: &SegmentValue<u32>, every: usize| match v {
-                SegmentValue::CenterOf(i) if (*i as usize).is_multiple_of(every) => {
-                    labels.get(*i as usize).cloned().unwrap_or_default()
-                }
-                _ => String::new(),
-            };
+            let label =
+                |labels: &[String], v: f64| labels.get(v.floor().max(0.0) as usize).cloned().unwrap_or_default();
             chart
                 .configure_mesh()
                 .disable_mesh()
-                .x_labels(nx as usize)
-                .y_labels(ny as usize)
-                .x_label_formatter(&|v| label(&panel.columns, v, every))
-                .y_label_formatter(&|v| label(&panel.rows, v, 1))
+                .x_label_formatter(&|v| label(&panel.columns, *v))
+                .y_label_formatter(&|v| label(&panel.rows, *v))
                 .x_desc(&self.x_label)
                 .y_desc(&self.y_label)
                 .label_style((FONT, 12))
@@ -342,17 +366,14 @@ impl Maps {
             chart
                 .draw_series(panel.cells.iter().map(|c| {
                     let color = self.legend.get(c.category).map_or(BLACK, |l| l.1);
-                    let (x, y) = (c.column as u32, c.row as u32);
-                    let corner = |x, y| (SegmentValue::Exact(x), SegmentValue::Exact(y));
-                    Rectangle::new([corner(x, y), corner(x + 1, y + 1)], color.filled())
+                    let (x, y) = (c.column as f64, c.row as f64);
+                    Rectangle::new([(x, y), (x + 1.0, y + 1.0)], color.filled())
                 }))
                 .map_err(|x| e(&x))?;
             if let Some((at, text)) = &panel.marker {
-                // A dashed vertical line at a fractional column position, in pixels.
-                let pixel = |x: u32, y: u32| chart.backend_coord(&(SegmentValue::Exact(x), SegmentValue::Exact(y)));
-                let (x0, bottom) = pixel(0, 0);
-                let (x1, top) = pixel(nx, ny);
-                let x = x0 + ((x1 - x0) as f64 * at / nx as f64).round() as i32;
+                // A vertical line at a fractional column position.
+                let (x, bottom) = chart.backend_coord(&(*at, 0.0));
+                let top = chart.backend_coord(&(*at, ny as f64)).1;
                 let style = BLACK.stroke_width(2);
                 root.draw(&PathElement::new(vec![(x, bottom), (x, top)], style)).map_err(|x| e(&x))?;
                 root.draw(&Text::new(text.clone(), (x + 4, top + 2), (FONT, 12))).map_err(|x| e(&x))?;
@@ -369,7 +390,30 @@ impl Maps {
     }
 }
 
-type Root<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+type Root<'a> = DrawingArea<Typeset<BitMapBackend<'a>>, plotters::coord::Shift>;
+
+/// A continuous axis over `cells` unit cells, labelled at the chosen `keys` (cell centres).
+struct CellAxis {
+    cells: f64,
+    keys: Vec<f64>,
+}
+
+impl Ranged for CellAxis {
+    type FormatOption = DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        limit.0 + (value / self.cells * f64::from(limit.1 - limit.0)).round() as i32
+    }
+
+    fn key_points<Hint: KeyPointHint>(&self, _: Hint) -> Vec<f64> {
+        self.keys.clone()
+    }
+
+    fn range(&self) -> Range<f64> {
+        0.0..self.cells
+    }
+}
 
 /// One bar: its label, value and colour.
 pub type Bar = (String, f64, RGBColor);
@@ -457,7 +501,7 @@ fn draw_png(
         return Err(fail("the picture under the chart is not of the chart's size".into()));
     }
     {
-        let root = BitMapBackend::with_buffer(&mut buffer, (w, h)).into_drawing_area();
+        let root = Typeset(BitMapBackend::with_buffer(&mut buffer, (w, h))).into_drawing_area();
         draw(&root).map_err(fail)?;
         root.present().map_err(|e| fail(e.to_string()))?;
     }
@@ -549,6 +593,50 @@ mod tests {
         let text = img.pixels().filter(|p| p.0[0] < 100 && p.0[0] == p.0[1] && p.0[1] == p.0[2]).count();
         assert!(text > 500, "labels are drawn with the bundled font ({text} pixels)");
         std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn every_map_panel_is_drawn_a_single_row_and_a_single_column_too() {
+        let dir = std::env::temp_dir().join(format!("shellwarp-maps-{}", std::process::id()));
+        let path = dir.join("m.png");
+        let green = RGBColor(0, 200, 0);
+        let panel = |title: &str, columns: usize, rows: usize| MapPanel {
+            title: title.into(),
+            columns: (0..columns).map(|c| format!("c{c}")).collect(),
+            rows: (0..rows).map(|r| format!("r{r}")).collect(),
+            cells: (0..columns).flat_map(|c| (0..rows).map(move |r| Cell { column: c, row: r, category: 0 })).collect(),
+            marker: None,
+        };
+        let maps = Maps {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            legend: vec![("ok".into(), green)],
+            panels: vec![panel("grid", 5, 4), panel("row", 5, 1), panel("column", 1, 4)],
+        };
+        maps.save(&path).unwrap();
+        let img = image::open(&path).unwrap().to_rgb8();
+        // Three panels side by side: each third of the panels' band has green cells.
+        for (third, name) in ["grid", "row", "column"].iter().enumerate() {
+            let (x0, x1) = (third as u32 * SIZE.0 / 3, (third as u32 + 1) * SIZE.0 / 3);
+            let cells = (x0..x1).flat_map(|x| (40..SIZE.1 - 90).map(move |y| (x, y)));
+            let drawn = cells.filter(|&(x, y)| img.get_pixel(x, y).0 == [0, 200, 0]).count();
+            assert!(drawn > 2000, "panel `{name}` has {drawn} drawn cell pixels");
+        }
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn log_axes_are_labelled_at_every_decade_and_at_2_and_5_over_a_short_span() {
+        let near =
+            |a: &[f64], b: &[f64]| a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x / y - 1.0).abs() < 1e-12);
+        let (bold, light) = log_ticks(&(0.003..40.0));
+        assert!(near(&bold, &[0.01, 0.1, 1.0, 10.0]), "every decade within the axis: {bold:?}");
+        assert_eq!(light.len(), 7 + 9 + 9 + 9 + 4, "the grid at every multiple: {light:?}");
+        let (bold, _) = log_ticks(&(0.03..0.35));
+        assert!(near(&bold, &[0.05, 0.1, 0.2]), "a decade and a bit: 1, 2 and 5 of each: {bold:?}");
+        let (bold, _) = log_ticks(&(1.5..4.0));
+        assert!(near(&bold, &[2.0, 3.0, 4.0]), "under a decade: every multiple: {bold:?}");
     }
 
     #[test]

@@ -17,6 +17,7 @@ pub mod measure;
 pub mod report;
 pub mod runner;
 pub mod table;
+pub mod typeset;
 
 use std::path::{Path, PathBuf};
 
