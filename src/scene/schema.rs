@@ -182,6 +182,10 @@ pub struct Material {
     /// `xpbd`: compliance of the bending constraints, 1/(N·m) per hinge (absent: from `k_b`, the
     /// energy `k_b (θ − θ̄)² |e|/h̄` of the discrete shell's hinge).
     pub compliance_bend: Option<f64>,
+    /// `xpbd`: the fraction of its stretch stiffness an edge keeps in compression, in [0, 1] (1: the
+    /// same both ways; 0: tension only, as the implicit cloth's stretch springs, whose compression
+    /// its buckling springs take and soon give up).
+    pub compression: f64,
     /// Balloon: the enclosed volume is held at `k_pressure` times the rest volume (a closed mesh only;
     /// absent: no volume constraint).
     pub k_pressure: Option<f64>,
@@ -204,6 +208,7 @@ impl Default for Material {
             pbd_bend: 0.1,
             compliance_stretch: None,
             compliance_bend: None,
+            compression: 1.0,
             k_pressure: None,
         }
     }

@@ -219,10 +219,12 @@ impl Scene {
             }
         }
         let m = &self.material;
-        for (key, k) in [("material.pbd_stretch", m.pbd_stretch), ("material.pbd_bend", m.pbd_bend)] {
+        for (key, k) in
+            [("material.pbd_stretch", m.pbd_stretch), ("material.pbd_bend", m.pbd_bend), ("material.compression", m.compression)]
+        {
             finite(key, k)?;
             if !(0.0..=1.0).contains(&k) {
-                return Err((key.into(), format!("is a stiffness in [0, 1], got {k}")));
+                return Err((key.into(), format!("is a fraction in [0, 1], got {k}")));
             }
         }
         for (key, c) in

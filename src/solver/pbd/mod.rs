@@ -17,9 +17,13 @@
 //! - `xpbd` replaces `k` by a compliance `α` (inverse stiffness) with `α̃ = α/h²` and a multiplier `λ`
 //!   per constraint, `Δλ = (−C − α̃λ)/(Σ w|∇C|² + α̃)`, `Δp_i = w_i ∇_i C Δλ`, so its stiffness is the
 //!   physical one whatever the sweeps and substeps: `α = 1/k_s` for the edges (the cloth's
-//!   springs; unlike them, XPBD's edges resist compression too) and `1/(k_b · 6|ē|²/(Ā₁ + Ā₂))` per
-//!   hinge (the discrete shell's hinge energy with `k_b` as its stiffness), unless the scene gives
-//!   compliances.
+//!   springs) and `1/(k_b · 6|ē|²/(Ā₁ + Ā₂))` per hinge (the discrete shell's hinge energy with `k_b`
+//!   as its stiffness), unless the scene gives compliances. An edge in compression (`C < 0`) has the
+//!   compliance `α / compression` (`material.compression`, 1 by default): the implicit cloth's
+//!   stretch springs take no compression (its buckling springs take it and soon give up), and edges
+//!   as stiff in compression as in stretch keep a cloth of tiny bending stiffness from buckling into
+//!   folds, so it crumples at the mesh's scale instead. With none at all the sheet collapses in its
+//!   plane; the drape keeps 2%.
 //!
 //! Anchored and dragged particles have infinite mass (a dragged one is placed at its target).
 //! Collisions: `contact`; self-collision: `self_collision`; bodies: `bodies`; the parameters: `params`.
@@ -117,6 +121,8 @@ pub struct Pbd {
     compliance: (Option<f64>, Option<f64>),
     k_s: f64,
     k_b: f64,
+    /// The fraction of its stretch stiffness an edge keeps in compression (XPBD).
+    compression: f64,
     // Scratch.
     rows: Rows,
     /// The substep's start as rows, for self-collision's test of its flat patches and the least
@@ -192,6 +198,7 @@ impl Pbd {
             compliance: (m.compliance_stretch, m.compliance_bend),
             k_s: check("k_s", m.k_s)?,
             k_b: check("k_b", m.k_b)?,
+            compression: check("compression", m.compression)?,
             rows: Rows::default(),
             start_rows: Rows::default(),
             multipliers: Multipliers::new(&model),
@@ -310,8 +317,11 @@ impl Pbd {
                 }
                 Variant::Xpbd => {
                     let (stretch, bend) = (alpha_stretch / (h * h), alpha_bend / (h * h));
-                    let bend = bend.is_finite().then_some((bend, Compliance));
-                    project::sweep(m, rows, lambda, (first, last), (stretch, Compliance), bend);
+                    let bend = bend.is_finite().then_some((bend, Compliance::SYMMETRIC));
+                    // An edge free in compression still gets a (very large) finite compliance: its
+                    // multiplier relaxes to zero instead of dividing by infinity.
+                    let compressed = 1.0 / self.compression.max(1e-12);
+                    project::sweep(m, rows, lambda, (first, last), (stretch, Compliance { compressed }), bend);
                 }
             }
             self.rows.read(&mut self.p);

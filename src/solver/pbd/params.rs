@@ -98,7 +98,7 @@ const PBD_PARAMS: [ParamSpec; 2] = [
 ];
 
 /// Parameters of `xpbd` only.
-const XPBD_PARAMS: [ParamSpec; 3] = [
+const XPBD_PARAMS: [ParamSpec; 4] = [
     ParamSpec {
         integer: true,
         ..ParamSpec::linear(
@@ -118,6 +118,14 @@ const XPBD_PARAMS: [ParamSpec; 3] = [
         log_scale: true,
         ..ParamSpec::linear("k_b", "bending rigidity k_b", "N·m", "Hinge stiffness k_b × 6|e|²/(A₁ + A₂).", 0.0, 1e3)
     },
+    ParamSpec::linear(
+        "compression",
+        "compression",
+        "",
+        "Fraction of its stretch stiffness an edge keeps in compression (0: tension only).",
+        0.0,
+        1.0,
+    ),
 ];
 
 /// `value` checked against the range of the parameter `name` of either variant (for `method`'s errors).
@@ -156,6 +164,7 @@ impl Pbd {
                     "pbd_bend" => self.stiffness.1,
                     "substeps" => self.substeps as f64,
                     "k_s" => self.k_s,
+                    "compression" => self.compression,
                     _ => self.k_b,
                 };
                 ParamValue { spec, value }
@@ -192,6 +201,7 @@ impl Pbd {
             "pbd_stretch" => self.stiffness.0 = value,
             "pbd_bend" => self.stiffness.1 = value,
             "substeps" => self.substeps = value as usize,
+            "compression" => self.compression = value,
             "k_s" => {
                 self.k_s = value;
                 self.compliance.0 = None;

@@ -51,13 +51,23 @@ impl Rule for Stiffness {
     }
 }
 
-/// XPBD: compliance with an accumulated multiplier.
+/// XPBD: compliance with an accumulated multiplier; a constraint below its rest value (`C < 0`, an
+/// edge in compression) has its compliance times `compressed` (1: the same both ways).
 #[derive(Debug, Clone, Copy)]
-pub struct Compliance;
+pub struct Compliance {
+    /// The compliance's factor where `C < 0`.
+    pub compressed: f64,
+}
+
+impl Compliance {
+    /// The same compliance both ways.
+    pub const SYMMETRIC: Self = Self { compressed: 1.0 };
+}
 
 impl Rule for Compliance {
     #[inline(always)]
     fn delta<N: Real>(&self, c: N, denominator: N, compliance: N, lambda: N) -> N {
+        let compliance = N::select(c.less(c.constant(0.0)), compliance * c.constant(self.compressed), compliance);
         (-c - compliance * lambda) / (denominator + compliance)
     }
 }
@@ -451,7 +461,7 @@ mod tests {
             let compliance = [COMPLIANCE; F];
             run::<T, _, K, F>(
                 &batches,
-                Sweep { rows: rows.indexed_mut(), lambda, first, last, compliance, rule: [Compliance; F] },
+                Sweep { rows: rows.indexed_mut(), lambda, first, last, compliance, rule: [Compliance::SYMMETRIC; F] },
                 path,
             );
             rows
@@ -573,5 +583,18 @@ mod tests {
         let before = flat;
         least_area(&triangles, &[0, 1], &x, &mut flat, &w, &double_areas, 0.2);
         assert_eq!(flat[3..], before[3..]);
+    }
+
+    #[test]
+    fn a_compressed_constraint_has_its_compliance_times_the_compression_factor() {
+        let (d, a, lambda) = (2.0, 0.5, 0.1);
+        let soft = Compliance { compressed: 100.0 };
+        // Stretched: as the symmetric rule.
+        assert_eq!(soft.delta(0.2, d, a, lambda), Compliance::SYMMETRIC.delta(0.2, d, a, lambda));
+        // Compressed: the compliance is a hundred times the stretched one.
+        let want = (0.2 - 100.0 * a * lambda) / (d + 100.0 * a);
+        assert!((soft.delta(-0.2, d, a, lambda) - want).abs() < 1e-15);
+        let ratio = soft.delta(-0.2, d, a, 0.0) / Compliance::SYMMETRIC.delta(-0.2, d, a, 0.0);
+        assert!((ratio - (d + a) / (d + 100.0 * a)).abs() < 1e-12, "a softer push back: {ratio}");
     }
 }
