@@ -29,6 +29,10 @@ pub enum RenderError {
         /// What is wrong with it.
         reason: String,
     },
+    /// A camera cannot be fitted to the given box (non-finite or inverted box, bad margin or field of
+    /// view, or a viewing direction along the up vector).
+    #[error("cannot fit the camera: {0}")]
+    BadCamera(String),
     /// The frame has more vertices than 32-bit indices can address.
     #[error("frame has {0} vertices, more than 32-bit indices can address")]
     TooManyVertices(usize),

@@ -5,6 +5,8 @@
 
 use glam::{Mat4, Vec3};
 
+use super::RenderError;
+
 /// A perspective camera looking from `eye` at `target`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
@@ -50,6 +52,70 @@ impl Camera {
     /// Combined `projection * view` matrix: world space to clip space.
     pub fn view_proj(&self, aspect: f32) -> Mat4 {
         self.projection(aspect) * self.view()
+    }
+
+    /// This camera moved (same viewing direction, up vector and field of view) so that the box
+    /// `[lo, hi]` fills a picture of width/height ratio `aspect` with `margin` to spare.
+    ///
+    /// With `f`, `r`, `u` the forward, right and true-up vectors and `(x, y, z)` the coordinates of a
+    /// box corner relative to the box centre along `r`, `u`, `f`, an eye at `centre + a·r + b·u − D·f`
+    /// sees the corner at depth `z + D` and horizontal clip coordinate `(x − a) / ((z + D)·tan(fov_y/2)·aspect)`.
+    /// Keeping it within `±(1 − margin)` for every corner, with `s = (1 − margin)·tan(fov_y/2)·aspect`,
+    /// asks `D ≥ max(U − a/s, L + a/s)` where `U = max(x/s − z)` and `L = max(−x/s − z)`; the least such
+    /// distance is `D_x = (U + L)/2`, at `a = s·(U − L)/2`. The same holds vertically (`b`, `D_y`). The
+    /// camera takes `D = max(D_x, D_y)` with both shifts, so the tighter axis touches the margin on both
+    /// sides and the other fits inside. Since perspective maps the box to the hull of its projected
+    /// corners, every point of the box is then inside the picture. `D` is also kept large enough that
+    /// the nearest corner lies in front of the eye (by 5% of the half-diagonal); the near plane sits
+    /// halfway to it and the far plane at least twice as far as the farthest corner.
+    ///
+    /// `margin` is a fraction of the half-width and half-height in `[0, 1)`. A non-positive or
+    /// non-finite `aspect` is treated as 1, as in [`Camera::projection`].
+    pub fn fitted(&self, lo: Vec3, hi: Vec3, aspect: f32, margin: f32) -> Result<Camera, RenderError> {
+        let bad = |reason: String| Err(RenderError::BadCamera(reason));
+        if !(lo.is_finite() && hi.is_finite() && lo.cmple(hi).all()) {
+            return bad(format!("the box {lo} .. {hi} is not finite and ordered"));
+        }
+        if !(0.0..1.0).contains(&margin) {
+            return bad(format!("the margin must lie in [0, 1), got {margin}"));
+        }
+        if !(self.fov_y_deg > 0.0 && self.fov_y_deg < 180.0) {
+            return bad(format!("the field of view must lie in (0°, 180°), got {}°", self.fov_y_deg));
+        }
+        let f = self.forward();
+        if f.cross(self.up).length() < 1e-6 * self.up.length() || !self.up.is_finite() {
+            return bad(format!("the view direction {f} runs along the up vector {}", self.up));
+        }
+        let aspect = if aspect.is_finite() && aspect > 0.0 { aspect } else { 1.0 };
+        let (r, u) = (self.right(), self.true_up());
+        let tan = (1.0 - margin) * (self.fov_y_deg.to_radians() * 0.5).tan();
+        let (sx, sy) = (tan * aspect, tan);
+        let (centre, half) = ((lo + hi) * 0.5, (hi - lo) * 0.5);
+        let corners = (0..8).map(|k| {
+            let sign = Vec3::new([-1.0, 1.0][k & 1], [-1.0, 1.0][(k >> 1) & 1], [-1.0, 1.0][(k >> 2) & 1]);
+            let q = sign * half;
+            (q.dot(r), q.dot(u), q.dot(f))
+        });
+        let (mut ux, mut lx, mut uy, mut ly) = (f32::MIN, f32::MIN, f32::MIN, f32::MIN);
+        let (mut z_min, mut z_max) = (f32::MAX, f32::MIN);
+        for (x, y, z) in corners {
+            ux = ux.max(x / sx - z);
+            lx = lx.max(-x / sx - z);
+            uy = uy.max(y / sy - z);
+            ly = ly.max(-y / sy - z);
+            z_min = z_min.min(z);
+            z_max = z_max.max(z);
+        }
+        let clearance = 0.05 * half.length().max(1e-3);
+        let distance = (0.5 * (ux + lx)).max(0.5 * (uy + ly)).max(clearance - z_min);
+        let target = centre + r * (sx * 0.5 * (ux - lx)) + u * (sy * 0.5 * (uy - ly));
+        Ok(Camera {
+            eye: target - f * distance,
+            target,
+            near: 0.5 * (z_min + distance),
+            far: self.far.max(2.0 * (z_max + distance)),
+            ..*self
+        })
     }
 
     /// Unit vector from the eye towards the target.
@@ -224,6 +290,56 @@ mod tests {
         // A point above the target is drawn above the centre.
         let clip = cam.view_proj(1.5) * (cam.target + Vec3::Y * 0.1).extend(1.0);
         assert!(clip.y / clip.w > 0.0);
+    }
+
+    /// Clip-space `(x, y)` of `p` seen by `cam` in a picture of ratio `aspect`, and its depth.
+    fn project(cam: &Camera, aspect: f32, p: Vec3) -> (f32, f32, f32) {
+        let clip = cam.view_proj(aspect) * p.extend(1.0);
+        (clip.x / clip.w, clip.y / clip.w, clip.w)
+    }
+
+    #[test]
+    fn a_fitted_camera_shows_the_whole_box_and_fills_one_axis() {
+        let boxes = [
+            (Vec3::new(-0.5, -0.05, -0.08), Vec3::new(0.5, 0.08, 0.08)),
+            (Vec3::new(-0.5, -0.95, -0.1), Vec3::new(0.3, 0.0, 0.1)),
+            (Vec3::new(2.0, 3.0, 4.0), Vec3::new(2.5, 3.0, 4.5)),
+        ];
+        let directions = [Vec3::new(0.9, 0.55, 1.0), Vec3::new(-1.0, 0.2, 0.1), Vec3::new(0.0, 2.0, 0.3)];
+        for (lo, hi) in boxes {
+            for from in directions {
+                for (aspect, margin) in [(1.3, 0.06), (0.5, 0.0), (2.0, 0.2)] {
+                    let mut start = Camera::look_at(from, Vec3::ZERO);
+                    start.fov_y_deg = 30.0;
+                    let cam = start.fitted(lo, hi, aspect, margin).unwrap();
+                    assert!((cam.forward() - start.forward()).length() < 1e-5, "the direction is kept");
+                    let (mut x_extent, mut y_extent) = ((f32::MAX, f32::MIN), (f32::MAX, f32::MIN));
+                    for k in 0..8 {
+                        let p = Vec3::new([lo.x, hi.x][k & 1], [lo.y, hi.y][(k >> 1) & 1], [lo.z, hi.z][(k >> 2) & 1]);
+                        let (x, y, w) = project(&cam, aspect, p);
+                        assert!(w > cam.near && w < cam.far, "corner {p} at depth {w}");
+                        assert!(x.abs() <= 1.0 - margin + 1e-4 && y.abs() <= 1.0 - margin + 1e-4, "{p}: {x}, {y}");
+                        x_extent = (x_extent.0.min(x), x_extent.1.max(x));
+                        y_extent = (y_extent.0.min(y), y_extent.1.max(y));
+                    }
+                    let fills = |(a, b): (f32, f32)| (a + 1.0 - margin).abs() < 1e-3 && (b - 1.0 + margin).abs() < 1e-3;
+                    assert!(fills(x_extent) || fills(y_extent), "{lo}..{hi} from {from}: {x_extent:?} {y_extent:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn fitting_refuses_bad_boxes_margins_and_directions() {
+        let cam = Camera::look_at(Vec3::new(1.0, 1.0, 1.0), Vec3::ZERO);
+        let (lo, hi) = (Vec3::ZERO, Vec3::ONE);
+        assert!(cam.fitted(hi, lo, 1.0, 0.1).is_err());
+        assert!(cam.fitted(Vec3::splat(f32::INFINITY), hi, 1.0, 0.1).is_err());
+        assert!(cam.fitted(lo, hi, 1.0, 1.0).is_err());
+        assert!(cam.fitted(lo, hi, 1.0, f32::NAN).is_err());
+        assert!(Camera::look_at(Vec3::Y, Vec3::ZERO).fitted(lo, hi, 1.0, 0.1).is_err());
+        assert!(Camera { fov_y_deg: 0.0, ..cam }.fitted(lo, hi, 1.0, 0.1).is_err());
+        assert!(cam.fitted(lo, lo, 1.0, 0.1).is_ok(), "a point is framed too");
     }
 
     #[test]

@@ -4,8 +4,12 @@
 //!
 //! The pair is the built-in `v-beam` (1 m × 0.2 m, 90° crease, 40 × 8 cells) and the same mesh opened
 //! flat (`angle_deg = 180`), so the two differ only by the crease. Each case renders its `mwts`
-//! equilibrium (surface) with the `ds-static` reference as black lines over it; the picture is a case
-//! artefact (`cases/<id>.png`) that the report tiles.
+//! equilibrium (surface) with the `ds-static` reference as black lines over it and the rest shape's
+//! outline in white; the picture is a case artefact (`cases/<id>.png`) that the report tiles, each
+//! under a caption read from the table (the tip deflections). Every panel has its own camera: one
+//! viewing direction (three-quarters from the free end and above, which shows the V's cross-section
+//! and the sag) moved so that the box around the rest shape and both equilibria fills the panel
+//! ([`Camera::fitted`]), so a stiff beam is as large as a drooping one.
 
 use std::path::Path;
 
@@ -13,7 +17,7 @@ use glam::{DVec3, Vec3};
 
 use super::super::chart::{Axis, Plot, Series, Style, Tiles, method_color};
 use super::super::measure::{self, Stop};
-use super::super::report::{Section, bold};
+use super::super::report::{Section, bold, number};
 use super::super::runner::CaseId;
 use super::super::table::{Column, Table, Value, computed, timed};
 use super::super::{EvalError, Experiment};
@@ -47,11 +51,39 @@ fn overrides(angle: f64, k_bend: f64) -> Vec<String> {
     vec![format!("mesh.v-beam.angle_deg={angle}"), format!("material.k_bend={k_bend}"), format!("solver.modes={MODES}")]
 }
 
-/// The side view every tile is drawn from.
-fn camera() -> Camera {
-    let mut c = Camera::look_at(Vec3::new(0.45, 0.25, 2.1), Vec3::new(0.02, -0.38, 0.0));
-    c.fov_y_deg = 40.0;
-    c
+/// Where every panel is seen from (from the beam towards the eye): three-quarters, from the free end's
+/// side and above, so that the V's cross-section and the sag along the beam both show.
+const VIEW_FROM: Vec3 = Vec3::new(0.9, 0.55, 1.0);
+/// The panels' vertical field of view, degrees.
+const FOV_Y_DEG: f32 = 30.0;
+/// Space left around the fitted beam, as a fraction of the panel's half-width and half-height.
+const MARGIN: f32 = 0.08;
+/// Colour of the rest shape's outline, linear RGBA.
+const REST: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
+
+/// The camera of a panel of width/height ratio `aspect`: seen from [`VIEW_FROM`], fitted to the box
+/// around every shape it draws (rest, equilibria).
+fn panel_camera(shapes: &[&[DVec3]], aspect: f32) -> Result<Camera, EvalError> {
+    let (lo, hi) = crate::mesh::bounds(&shapes.concat());
+    let mut view = Camera::look_at(VIEW_FROM, Vec3::ZERO);
+    view.fov_y_deg = FOV_Y_DEG;
+    Ok(view.fitted(lo.as_vec3(), hi.as_vec3(), aspect, MARGIN)?)
+}
+
+/// The caption under `case`'s panel, from its rows of `table`: the beam, the stiffness factor and the
+/// tip deflection of the reference and of `mwts` (the surface drawn).
+fn caption(table: &Table, case: &str) -> Result<String, EvalError> {
+    let rows: Vec<&Vec<Value>> = table.filter("case", case)?.collect();
+    let of = |method: &str| rows.iter().find(|r| table.get(r, "method").is_ok_and(|m| m.text() == method));
+    let reference =
+        of("ds-static").ok_or_else(|| EvalError::Data(format!("paper-fig4: no reference row for {case}")))?;
+    let tip = |r: &[Value]| table.get(r, "tip_deflection").map(|v| number(v.num()));
+    let mwts = match of("mwts") {
+        Some(r) => format!(", MWTS {}", tip(r)?),
+        None => String::new(),
+    };
+    let (beam, factor) = (table.get(reference, "beam")?.text(), table.get(reference, "k_bend_factor")?.num());
+    Ok(format!("{beam}, k_B × {factor}: tip {} m{mwts}", tip(reference)?))
 }
 
 impl Experiment for PaperFig4 {
@@ -112,10 +144,15 @@ impl Experiment for PaperFig4 {
         let (w, h) = Tiles::tile_size(FACTORS.len(), BEAMS.len());
         let mut headless = Headless::new(w, h)?;
         let view = SceneView::new(&base);
-        let mut frame = view.frame(camera(), &mwts, 0.0, &[], ViewOptions { wireframe: false });
-        let p = |v: usize| reference.positions[v].as_vec3().to_array();
-        for e in &base.mesh.topology().edges {
-            frame.line(p(e.v[0]), p(e.v[1]), [0.0, 0.0, 0.0, 1.0]);
+        let camera = panel_camera(&[&rest, &mwts, &reference.positions], w as f32 / h as f32)?;
+        let mut frame = view.frame(camera, &mwts, 0.0, &[], ViewOptions { wireframe: false });
+        let topology = base.mesh.topology();
+        let p = |x: &[DVec3], v: usize| x[v].as_vec3().to_array();
+        for e in &topology.edges {
+            frame.line(p(&reference.positions, e.v[0]), p(&reference.positions, e.v[1]), [0.0, 0.0, 0.0, 1.0]);
+        }
+        for e in topology.boundary_edges.iter().map(|&i| &topology.edges[i]) {
+            frame.line(p(&rest, e.v[0]), p(&rest, e.v[1]), REST);
         }
         let image = headless.render(&frame)?;
         let id = CaseId { experiment: "paper-fig4", key: case.to_string() };
@@ -136,7 +173,9 @@ impl Experiment for PaperFig4 {
                 "The built-in `v-beam` (1 m × 0.2 m, 40 × 8 cells, 90° crease) and the same mesh opened flat, \
                  k_B = {BASE_K_BEND} N·m × 1, × 10, × 100, gravity 9.81 m/s², clamped by two rows. `lma` and \
                  `mwts` ({MODES} modes) run to rest under critical damping of the lowest mode; `ds-static` is the \
-                 reference. Pictures: the `mwts` equilibrium (surface) with the reference's edges (black lines)."
+                 reference. Pictures: the `mwts` equilibrium (surface) with the reference's edges (black lines) \
+                 and the rest shape's outline (white), each panel fitted to its beam and seen from the free \
+                 end's side and above; under each, the tip deflection of the reference (and of `mwts`)."
             ),
             ..Section::default()
         };
@@ -173,20 +212,12 @@ impl Experiment for PaperFig4 {
         for row in table.rows.iter().filter(|r| r[mi].text() == "ds-static") {
             let id = CaseId { experiment: "paper-fig4", key: row[0].text() };
             let picture = load_png(id.artefact(out, "png"))?;
-            tiles.push((
-                picture,
-                format!(
-                    "{}-beam, k_B × {}: tip {} m",
-                    row[bi].text(),
-                    row[ki].num(),
-                    super::super::report::number(row[ti].num())
-                ),
-            ));
+            tiles.push((picture, caption(table, &row[0].text())?));
         }
         if tiles.len() == FACTORS.len() * BEAMS.len() {
             let file = format!("{}-equilibria.png", self.name());
             Tiles {
-                title: "Equilibria: MWTS (surface) and the nonlinear reference (lines)".into(),
+                title: "Flat beam (top) and V-beam (bottom): MWTS (surface), reference (lines), rest (white)".into(),
                 columns: FACTORS.len(),
                 tiles,
             }
@@ -210,5 +241,63 @@ impl Experiment for PaperFig4 {
             }
         }
         Ok(section)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::generate::v_beam;
+
+    #[test]
+    fn every_panel_shows_its_whole_beam_and_the_beam_fills_it() {
+        let (w, h) = Tiles::tile_size(FACTORS.len(), BEAMS.len());
+        let aspect = w as f32 / h as f32;
+        for (_, angle) in BEAMS {
+            let rest = v_beam(1.0, 0.2, angle, [40, 8]).unwrap().positions().to_vec();
+            // A slight sag (the V-beam's), and a droop of most of the length (the soft flat beam's).
+            for sag in [0.01, 0.9] {
+                let bent: Vec<DVec3> =
+                    rest.iter().map(|p| DVec3::new(p.x, p.y - sag * (p.x + 0.5).powi(2), p.z)).collect();
+                let camera = panel_camera(&[&rest, &bent], aspect).unwrap();
+                let (mut lo, mut hi) = ([f32::MAX; 2], [f32::MIN; 2]);
+                for p in rest.iter().chain(&bent) {
+                    let clip = camera.view_proj(aspect) * p.as_vec3().extend(1.0);
+                    let ndc = [clip.x / clip.w, clip.y / clip.w];
+                    assert!(
+                        clip.w > 0.0 && ndc.iter().all(|c| c.abs() <= 1.0),
+                        "angle {angle}, sag {sag}: {p} at {ndc:?}"
+                    );
+                    for k in 0..2 {
+                        lo[k] = lo[k].min(ndc[k]);
+                        hi[k] = hi[k].max(ndc[k]);
+                    }
+                }
+                // Clip coordinates span 2 across the panel.
+                let cover = [(hi[0] - lo[0]) / 2.0, (hi[1] - lo[1]) / 2.0];
+                assert!(cover[0] >= 0.5 || cover[1] >= 0.5, "angle {angle}, sag {sag}: covers {cover:?} of the panel");
+            }
+        }
+    }
+
+    #[test]
+    fn a_caption_carries_the_tables_tip_deflections() {
+        let mut table = Table::new(COLUMNS);
+        for (method, tip) in [("ds-static", 0.011129388), ("lma", 0.0109815), ("mwts", 0.0109936)] {
+            table
+                .push(vec![
+                    ("case", "V/kb=1".into()),
+                    ("beam", "V".into()),
+                    ("k_bend_factor", 1.0.into()),
+                    ("method", method.to_string().into()),
+                    ("tip_deflection", tip.into()),
+                ])
+                .unwrap();
+        }
+        let text = caption(&table, "V/kb=1").unwrap();
+        assert!(text.starts_with("V, k_B × 1: "), "{text}");
+        assert!(text.contains(&format!("tip {} m", number(0.011129388))), "{text}");
+        assert!(text.contains(&number(0.0109936)), "{text}");
+        assert!(caption(&table, "flat/kb=1").is_err(), "no rows, no caption");
     }
 }
