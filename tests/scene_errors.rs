@@ -29,6 +29,7 @@ fn every_validation_check_names_its_key() {
         format!("tracks=[{{ {select}{body} }}]")
     };
     let joints = |list: &str| format!("skeleton={{ joints = [{list}] }}");
+    let part = |body: &str| format!("parts=[{{ select = {{ indices = [0] }}, {body} }}]");
     let cases: Vec<(String, &str, &str)> = vec![
         (grid("[1.0, -0.1]", "[4, 1]"), "mesh.size", "must be positive"),
         (grid("[1.0, 0.1]", "[4, 0]"), "mesh.segments", "at least 1"),
@@ -114,8 +115,8 @@ fn every_validation_check_names_its_key() {
         ("solver.least_area=-0.1".into(), "solver.least_area", "fraction of the rest area in [0, 1)"),
         ("material.compliance_stretch=-1e-3".into(), "material.compliance_stretch", "must not be negative"),
         ("material.compliance_bend=-1".into(), "material.compliance_bend", "must not be negative"),
-        ("material.pbd_stretch=1.5".into(), "material.pbd_stretch", "stiffness in [0, 1]"),
-        ("material.pbd_bend=-0.1".into(), "material.pbd_bend", "stiffness in [0, 1]"),
+        ("material.pbd_stretch=1.5".into(), "material.pbd_stretch", "fraction in [0, 1]"),
+        ("material.pbd_bend=-0.1".into(), "material.pbd_bend", "fraction in [0, 1]"),
         ("material.k_pressure=0".into(), "material.k_pressure", "must be positive"),
         (
             "colliders=[{ sphere = { center = [0, 0, 0], radius = 0.1, mass = 0.0 } }]".into(),
@@ -165,6 +166,9 @@ fn every_validation_check_names_its_key() {
         ),
         ("solver.accuracy=1.5".into(), "solver.accuracy", "relative error in (0, 1]"),
         ("solver.accuracy=nan".into(), "solver.accuracy", "relative error in (0, 1]"),
+        (part("accuracy = 0.0"), "parts[0].accuracy", "relative error in (0, 1]"),
+        (part("accuracy = nan"), "parts[0].accuracy", "relative error in (0, 1]"),
+        (part("accuracy = -inf"), "parts[0].accuracy", "relative error in (0, 1]"),
         ("solver.method=\"\"".into(), "solver.method", "required unless solver.accuracy"),
         ("solver.step=-0.1".into(), "solver.step", "must be positive"),
         ("solver.modes=0".into(), "solver.modes", "at least 1"),

@@ -352,16 +352,23 @@ pub struct Part {
     /// Modal methods: relative compliance of drag constraints.
     #[serde(default)]
     pub constraint_damping: Option<f64>,
+    /// Target relative displacement-field error of this part: the part gets the cheapest model that
+    /// meets it (as `solver.accuracy` does for a scene; `method`, else `[solver]`'s, names the family
+    /// to choose from).
+    #[serde(default)]
+    pub accuracy: Option<f64>,
 }
 
 impl Part {
-    /// `[solver]` with this part's settings in place.
+    /// `[solver]` with this part's settings in place: the part's own accuracy target, else none if it
+    /// names a method, else `[solver]`'s.
     pub fn settings(&self, solver: &SolverSettings) -> SolverSettings {
         let mut s = solver.clone();
         if let Some(m) = &self.method {
             s.method = m.clone();
             s.accuracy = None;
         }
+        s.accuracy = self.accuracy.or(s.accuracy);
         s.modes = self.modes.unwrap_or(s.modes);
         s.step = self.step.or(s.step);
         s.rayleigh_alpha = self.rayleigh_alpha.unwrap_or(s.rayleigh_alpha);

@@ -20,6 +20,11 @@ fn non_negative(key: &str, v: f64) -> Result<(), Invalid> {
     if v >= 0.0 { Ok(()) } else { Err((key.into(), format!("must not be negative, got {v}"))) }
 }
 
+/// A target relative error: in (0, 1].
+fn accuracy(key: &str, a: f64) -> Result<(), Invalid> {
+    if a > 0.0 && a <= 1.0 { Ok(()) } else { Err((key.into(), format!("must be a relative error in (0, 1], got {a}"))) }
+}
+
 fn vec3(key: &str, v: [f64; 3]) -> Result<(), Invalid> {
     v.iter().try_for_each(|&x| finite(key, x))
 }
@@ -121,6 +126,9 @@ impl Scene {
             }
             if let Some(d) = p.constraint_damping {
                 positive(&key("constraint_damping"), d)?;
+            }
+            if let Some(a) = p.accuracy {
+                accuracy(&key("accuracy"), a)?;
             }
         }
         let m = &self.material;
@@ -242,13 +250,11 @@ impl Scene {
         non_negative("wind.gust", w.gust)?;
         non_negative("wind.gust_frequency", w.gust_frequency)?;
         match s.accuracy {
-            Some(a) if !(a > 0.0 && a <= 1.0) => {
-                return Err(("solver.accuracy".into(), format!("must be a relative error in (0, 1], got {a}")));
-            }
+            Some(a) => accuracy("solver.accuracy", a)?,
             None if s.method.is_empty() => {
                 return Err(("solver.method".into(), "is required unless solver.accuracy is given".into()));
             }
-            _ => {}
+            None => {}
         }
         vec3("camera.eye", self.camera.eye)?;
         vec3("camera.target", self.camera.target)?;

@@ -6,8 +6,14 @@
 //! timed steps of each) and estimated in that order until one meets the target, so the expensive
 //! ones are rarely touched. The estimates never run a reference:
 //!
-//! Accuracy is that of the scene's equilibrium under its loads (where a cheaper model's error lives;
-//! a fixed step adds time-discretisation error that is not counted).
+//! Accuracy is that of the scene's equilibrium under its loads, its tracks held at their targets at
+//! time 0 (where a cheaper model's error lives; a fixed step adds time-discretisation error that is
+//! not counted). A shell held only by tracks (a free part of the dancer) is judged as it runs: its
+//! rigid modes kept, the tracked vertices held by drags.
+//!
+//! Each `[[parts]]` entry with a target (its own `accuracy`, else `solver.accuracy`) is chosen for
+//! alone, on the scene cut down to that part ([`super::parts::split`]): the parts share no vertex and
+//! no force, so the cheapest combination meeting every part's target is the cheapest model per part.
 //!
 //! - **Shells** (`rigid`, the modal methods with 1–64 modes, `ds-implicit`): the candidate's static
 //!   equilibrium (run to rest under critical damping of the lowest mode) is judged by
@@ -29,6 +35,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::run::{Stop, distance, run};
+use super::script::Script;
 use super::{DragSet, Solver, SolverError, quality, registry};
 use crate::scene::Setup;
 
@@ -73,11 +80,13 @@ pub struct Candidate {
     pub cost: f64,
     /// Estimated relative error (NaN: not estimated, because a cheaper candidate met the target).
     pub estimate: f64,
+    /// Why the candidate could not be built or run, if it could not (it is then passed over).
+    pub failure: Option<String>,
 }
 
 impl Candidate {
     fn new(method: &'static str, modes: Option<usize>) -> Self {
-        Self { method, modes, step: None, tolerance: None, cost: f64::NAN, estimate: f64::NAN }
+        Self { method, modes, step: None, tolerance: None, cost: f64::NAN, estimate: f64::NAN, failure: None }
     }
 
     /// `method` with its setting, e.g. `mwts, 8 modes`.
@@ -124,6 +133,8 @@ pub struct Choice {
     pub candidates: Vec<Candidate>,
     /// Index of the chosen one (the most accurate estimated if none meets the target).
     pub chosen: usize,
+    /// Wall-clock seconds spent measuring the candidates' costs (what a brute force needs as well).
+    pub costing: f64,
 }
 
 impl Choice {
@@ -155,6 +166,11 @@ impl Choice {
             .collect();
         if !rejected.is_empty() {
             lines.push(format!("cheaper candidates estimated above the target: {}", rejected.join(", ")));
+        }
+        let failed: Vec<String> =
+            self.candidates.iter().filter_map(|c| c.failure.as_ref().map(|f| format!("{} ({f})", c.label()))).collect();
+        if !failed.is_empty() {
+            lines.push(format!("passed over, could not be run: {}", failed.join(", ")));
         }
         lines
     }
@@ -213,7 +229,8 @@ pub fn remedy(
 }
 
 /// Measure every candidate's cost, then estimate them cheapest first under `drags` until one meets
-/// `accuracy`.
+/// `accuracy`. A candidate that cannot be built or run (its precompute or a step fails) is passed
+/// over, last in cost order, with why; if none can, the first failure is the error.
 fn choose_among(
     setup: &Setup,
     accuracy: f64,
@@ -221,25 +238,43 @@ fn choose_among(
     drags: &DragSet,
 ) -> Result<Choice, SolverError> {
     let family = Family::of(setup);
+    let mut first_failure = None;
+    let mut fail = |c: &mut Candidate, e: SolverError| {
+        c.failure = Some(e.to_string());
+        first_failure.get_or_insert(e);
+    };
+    let clock = Instant::now();
     for c in &mut candidates {
-        c.cost = cost(&c.apply(setup))?;
+        match cost(&c.apply(setup)) {
+            Ok(x) => c.cost = x,
+            Err(e) => fail(c, e),
+        }
     }
-    candidates.sort_by(|a, b| a.cost.total_cmp(&b.cost));
+    let costing = clock.elapsed().as_secs_f64();
+    candidates.sort_by(|a, b| a.failure.is_some().cmp(&b.failure.is_some()).then(a.cost.total_cmp(&b.cost)));
     let mut chosen = None;
-    for (i, c) in candidates.iter_mut().enumerate() {
-        c.estimate = match family {
-            Family::Cloth => cloth_estimate(setup, c)?,
-            Family::Shell => shell_estimate(setup, c, drags)?,
+    for (i, c) in candidates.iter_mut().enumerate().filter(|(_, c)| c.failure.is_none()) {
+        let estimate = match family {
+            Family::Cloth => cloth_estimate(setup, c),
+            Family::Shell => shell_estimate(setup, c, drags),
         };
+        match estimate {
+            Ok(e) => c.estimate = e,
+            Err(e) => fail(c, e),
+        }
         if c.estimate <= accuracy {
             chosen = Some(i);
             break;
         }
     }
-    let chosen = chosen.unwrap_or_else(|| {
-        (0..candidates.len()).min_by(|&a, &b| candidates[a].estimate.total_cmp(&candidates[b].estimate)).unwrap_or(0)
-    });
-    Ok(Choice { accuracy, family, candidates, chosen })
+    let most_accurate = (0..candidates.len())
+        .filter(|&i| candidates[i].estimate.is_finite())
+        .min_by(|&a, &b| candidates[a].estimate.total_cmp(&candidates[b].estimate));
+    match (chosen.or(most_accurate), first_failure) {
+        (Some(chosen), _) => Ok(Choice { accuracy, family, candidates, chosen, costing }),
+        (None, Some(e)) => Err(e),
+        (None, None) => Err(SolverError::Unsuitable { method: "auto", reason: "no candidate model".into() }),
+    }
 }
 
 /// Choose for the scene's `solver.accuracy` and build the winner: the solver and why it was chosen.
@@ -282,11 +317,13 @@ fn shell_estimate(setup: &Setup, c: &Candidate, drags: &DragSet) -> Result<f64, 
         "ds-implicit" => return Ok(0.0),
         _ => {}
     }
-    quality::estimate(setup, settle(setup, c, drags)?.positions(), drags)
+    let settled = settle(setup, c, drags)?;
+    quality::estimate(setup, settled.positions(), settled.drags())
 }
 
-/// The candidate's equilibrium under the scene's loads: shells run to rest under critical damping of
-/// their lowest mode (at most 40 time constants), cloth under its own damping (at most 20 s).
+/// The candidate's equilibrium under the scene's loads, its tracks held at their start: shells run to
+/// rest under critical damping of their lowest mode (at most 40 time constants), cloth under its own
+/// damping (at most 20 s).
 pub fn at_rest(setup: &Setup, c: &Candidate) -> Result<Vec<DVec3>, SolverError> {
     Ok(settle(setup, c, &DragSet::default())?.positions().to_vec())
 }
@@ -297,14 +334,27 @@ fn settle(setup: &Setup, c: &Candidate, drags: &DragSet) -> Result<Box<dyn Solve
     let mut s = c.apply(setup);
     let stop = match Family::of(setup) {
         Family::Shell => {
-            let omega = lowest_frequency(setup)?;
+            let omega = lowest_frequency(&held(setup))?;
             s.scene.solver.rayleigh_alpha = 2.0 * omega;
             s.scene.solver.rayleigh_beta = 0.0;
             Stop { max_time: 40.0 / omega, max_steps: 20_000, rest: 1e-7 }
         }
         Family::Cloth => Stop { max_time: 20.0, max_steps: 20_000, rest: 1e-6 },
     };
-    let mut solver = registry::build(&s)?;
+    let mut solver = start(&s, drags)?;
+    let reached = run(solver.as_mut(), &rest, stop);
+    match reached.outcome {
+        super::run::Outcome::Diverged(e) => Err(e),
+        _ => Ok(solver),
+    }
+}
+
+/// The solver of `setup` at rest with `drags` (those its method takes) and the drags of its tracks
+/// at their targets at time 0, held there (the tracks do not move on).
+pub fn start(setup: &Setup, drags: &DragSet) -> Result<Box<dyn Solver>, SolverError> {
+    let mut still = setup.clone();
+    still.scene.tracks.clear();
+    let mut solver = registry::build(&still)?;
     for (_, d) in drags.iter() {
         if matches!(d.kind, super::DragKind::Position(_)) || solver.drags().supports_orientation() {
             solver.drags_mut().add(*d)?;
@@ -315,11 +365,19 @@ fn settle(setup: &Setup, c: &Candidate, drags: &DragSet) -> Result<Box<dyn Solve
             solver.drags_mut().add_frame(f.clone())?;
         }
     }
-    let reached = run(solver.as_mut(), &rest, stop);
-    match reached.outcome {
-        super::run::Outcome::Diverged(e) => Err(e),
-        _ => Ok(solver),
-    }
+    Script::new(setup).drive(solver.as_mut(), 0.0)?;
+    Ok(solver)
+}
+
+/// `setup` with every tracked vertex anchored as well: the shell held where its tracks hold it, for
+/// what needs anchors (the lowest frequency of a part held only by tracks, a `ds-static` reference;
+/// [`start`] still places the tracked vertices at their tracks' targets).
+pub fn held(setup: &Setup) -> Setup {
+    let mut s = setup.clone();
+    s.anchors.extend(setup.tracks.iter().flatten());
+    s.anchors.sort_unstable();
+    s.anchors.dedup();
+    s
 }
 
 /// The relative error estimate of a cloth candidate: from its rest state, [`RELAX_STEPS`] backward
@@ -372,6 +430,21 @@ mod tests {
         let built = registry::build(&s).unwrap();
         assert_eq!(built.method(), strict.winner().method);
         assert!(built.notes()[0].starts_with("accuracy 0.05: chose"), "{:?}", built.notes());
+    }
+
+    #[test]
+    fn a_candidate_that_cannot_be_built_is_passed_over_with_why() {
+        let setup = cantilever();
+        let none = DragSet::default();
+        let too_many = Candidate::new("mwts", Some(100_000));
+        let choice =
+            choose_among(&setup, 0.5, vec![too_many.clone(), Candidate::new("ds-implicit", None)], &none).unwrap();
+        assert_eq!(choice.winner().method, "ds-implicit");
+        let failed = choice.candidates.last().unwrap();
+        assert!(failed.failure.as_deref().is_some_and(|f| f.contains("100000 modes")), "{failed:?}");
+        assert!(choice.explain().iter().any(|l| l.starts_with("passed over, could not be run: mwts, 100000 modes")));
+        // Nothing that can run: its failure is the error.
+        assert!(matches!(choose_among(&setup, 0.5, vec![too_many], &none), Err(SolverError::Unsuitable { .. })));
     }
 
     #[test]

@@ -8,13 +8,15 @@
 //! - Drags live in one set over the whole mesh; before a step they are handed to the part that owns
 //!   their vertex (renumbered). Orientation drags are allowed if every part takes them.
 //! - Parameters: the first part's list; setting one sets it in every part that has it.
+//! - Models: a part with an accuracy target (its own `accuracy`, else `solver.accuracy`) gets the
+//!   cheapest model that meets it, chosen on the part alone ([`super::auto`]).
 
 use std::time::Instant;
 
 use glam::DVec3;
 
 use super::registry::find;
-use super::{Drag, DragSet, FrameDrag, ParamValue, Progress, Solver, SolverError, StepStats};
+use super::{Drag, DragSet, FrameDrag, ParamValue, Progress, Solver, SolverError, StepStats, auto};
 use crate::scene::Setup;
 
 /// One part: its solver and the global index of each of its vertices.
@@ -24,6 +26,18 @@ struct Part {
     time: f64,
     /// Energy after its last step, J.
     energy: f64,
+    /// Why its model was chosen (empty unless it had an accuracy target).
+    why: Vec<String>,
+}
+
+/// A part before it is built: its vertices and the scene cut down to them.
+#[derive(Debug, Clone)]
+pub struct Piece {
+    /// Global index of each of its vertices, sorted.
+    pub vertices: Vec<usize>,
+    /// The scene cut down to the part (its mesh, anchors, loads, colliders and tracks, renumbered),
+    /// with `[solver]` replaced by the part's settings.
+    pub setup: Setup,
 }
 
 /// The parts of a scene, as one solver.
@@ -65,33 +79,50 @@ fn cut(setup: &Setup, vertices: &[usize], settings: crate::scene::SolverSettings
     })
 }
 
+/// The scene's parts, each cut down to its vertices with its own settings: the `[[parts]]` entries in
+/// order, then one more with `[solver]` for the vertices of no part (if any).
+pub fn split(setup: &Setup) -> Result<Vec<Piece>, SolverError> {
+    let n = setup.mesh.vertex_count();
+    let mut owned = vec![false; n];
+    let mut groups: Vec<(Vec<usize>, crate::scene::SolverSettings)> = Vec::new();
+    for (spec, vertices) in setup.scene.parts.iter().zip(&setup.parts) {
+        vertices.iter().for_each(|&v| owned[v] = true);
+        groups.push((vertices.clone(), spec.settings(&setup.scene.solver)));
+    }
+    let rest: Vec<usize> = (0..n).filter(|&v| !owned[v]).collect();
+    if !rest.is_empty() {
+        groups.push((rest, setup.scene.solver.clone()));
+    }
+    groups
+        .into_iter()
+        .map(|(vertices, settings)| Ok(Piece { setup: cut(setup, &vertices, settings)?, vertices }))
+        .collect()
+}
+
+/// A piece's solver: the model its accuracy target chooses, with why, or the method it names.
+fn build(piece: &Setup) -> Result<(Box<dyn Solver>, Vec<String>), SolverError> {
+    match piece.scene.solver.accuracy {
+        Some(_) => auto::build(piece),
+        None => Ok(((find(&piece.scene.solver.method)?.build)(piece)?, Vec::new())),
+    }
+}
+
 impl Parts {
     /// Build every part (and one more, with `[solver]`, for the vertices of no part).
     pub fn new(setup: &Setup) -> Result<Self, SolverError> {
         let n = setup.mesh.vertex_count();
-        let mut owned = vec![false; n];
-        let mut groups: Vec<(Vec<usize>, crate::scene::SolverSettings)> = Vec::new();
-        for (spec, vertices) in setup.scene.parts.iter().zip(&setup.parts) {
-            vertices.iter().for_each(|&v| owned[v] = true);
-            groups.push((vertices.clone(), spec.settings(&setup.scene.solver)));
-        }
-        let rest: Vec<usize> = (0..n).filter(|&v| !owned[v]).collect();
-        if !rest.is_empty() {
-            groups.push((rest, setup.scene.solver.clone()));
-        }
         let mut owner = vec![(0, 0); n];
-        let mut parts = Vec::with_capacity(groups.len());
-        for (i, (vertices, settings)) in groups.into_iter().enumerate() {
-            let method = find(&settings.method)?;
-            let sub = cut(setup, &vertices, settings)?;
-            let solver = (method.build)(&sub).map_err(|e| match e {
+        let pieces = split(setup)?;
+        let mut parts = Vec::with_capacity(pieces.len());
+        for (i, Piece { vertices, setup: sub }) in pieces.into_iter().enumerate() {
+            let (solver, why) = build(&sub).map_err(|e| match e {
                 SolverError::Unsuitable { method, reason } => {
                     SolverError::Unsuitable { method, reason: format!("part {i}: {reason}") }
                 }
                 e => e,
             })?;
             vertices.iter().enumerate().for_each(|(k, &v)| owner[v] = (i, k));
-            parts.push(Part { solver, vertices, time: 0.0, energy: 0.0 });
+            parts.push(Part { solver, vertices, time: 0.0, energy: 0.0, why });
         }
         // Orientation drags only if every part takes them: probe each with one at rest.
         let mut orientation = true;
@@ -246,8 +277,48 @@ impl Solver for Parts {
             .enumerate()
             .flat_map(|(i, p)| {
                 let head = format!("part {i}: {} on {} vertices", p.solver.method(), p.vertices.len());
-                std::iter::once(head).chain(p.solver.notes().into_iter().map(move |n| format!("part {i}: {n}")))
+                let own = p.why.iter().cloned().chain(p.solver.notes());
+                std::iter::once(head).chain(own.map(move |n| format!("part {i}: {n}")))
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_part_takes_its_own_target_else_none_if_it_names_a_method_else_the_scenes() {
+        let setup = crate::scene::load("dancer", &["solver.accuracy=0.1".into()]).unwrap();
+        let (mut part, solver) = (setup.scene.parts[0].clone(), &setup.scene.solver);
+        assert_eq!(part.settings(solver).accuracy, Some(0.1));
+        part.method = Some("lma".into());
+        assert_eq!(part.settings(solver).accuracy, None);
+        part.accuracy = Some(0.2);
+        let own = part.settings(solver);
+        assert_eq!((own.accuracy, own.method.as_str()), (Some(0.2), "lma"), "the method names the family");
+    }
+
+    /// The dancer's legs are mirror images: with a loose and a tight target they get a reduced model
+    /// and the full equations, each with why; the parts without a target keep the scene's method.
+    #[test]
+    fn each_part_gets_the_model_its_own_target_chooses() {
+        let mut setup = crate::scene::load("dancer", &[]).unwrap();
+        setup.scene.parts[2].accuracy = Some(0.5);
+        setup.scene.parts[3].accuracy = Some(0.05);
+        let targets: Vec<Option<f64>> = split(&setup).unwrap().iter().map(|p| p.setup.scene.solver.accuracy).collect();
+        assert_eq!(targets, [None, None, Some(0.5), Some(0.05)]);
+        let built = Parts::new(&setup).unwrap();
+        let methods: Vec<&str> = built.parts.iter().map(|p| p.solver.method()).collect();
+        assert_eq!(methods[..2], ["mwts", "mwts"]);
+        assert!(matches!(methods[2], "lma" | "mwts" | "mwts-rs"), "{methods:?}");
+        assert_eq!(methods[3], "ds-implicit", "only the full equations meet 5% on a leg");
+        let notes = built.notes();
+        for (k, target) in [(2, "0.5"), (3, "0.05")] {
+            let head = format!("part {k}: accuracy {target}: chose the cheapest model that meets it");
+            assert!(notes.iter().any(|n| n.starts_with(&head)), "{notes:?}");
+        }
+        assert!(built.parts[..2].iter().all(|p| p.why.is_empty()));
     }
 }

@@ -40,7 +40,7 @@ pub fn find(name: &str) -> Result<&'static Method, SolverError> {
 
 /// Build the solver the scene's `solver.method` names, or, when the scene gives `solver.accuracy`,
 /// the cheapest one that meets it ([`super::auto`]), or, for a scene of `[[parts]]`, each part with its
-/// own method ([`super::parts`]); driven by the scene's tracks, if any ([`super::script`]).
+/// own method or target ([`super::parts`]); driven by the scene's tracks, if any ([`super::script`]).
 pub fn build(setup: &Setup) -> Result<Box<dyn Solver>, SolverError> {
     let (inner, why): (Box<dyn Solver>, _) = match setup.scene.solver.accuracy {
         _ if !setup.scene.parts.is_empty() => (Box::new(super::parts::Parts::new(setup)?), Vec::new()),
