@@ -18,6 +18,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("pile", include_str!("../../assets/scenes/pile.toml")),
     ("push", include_str!("../../assets/scenes/push.toml")),
     ("flag", include_str!("../../assets/scenes/flag.toml")),
+    ("trampoline", include_str!("../../assets/scenes/trampoline.toml")),
 ];
 
 /// Names of the built-in scenes, in order.
