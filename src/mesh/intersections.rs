@@ -80,7 +80,14 @@ mod tests {
     #[test]
     fn a_flat_sheet_has_none_and_one_folded_through_itself_has_some() {
         // Two separate triangles, the second moved down through the first's plane.
-        let x0 = vec![DVec3::ZERO, DVec3::X, DVec3::Z, DVec3::new(0.2, 0.1, 0.2), DVec3::new(0.4, 0.1, 0.2), DVec3::new(0.2, 0.1, 0.4)];
+        let x0 = vec![
+            DVec3::ZERO,
+            DVec3::X,
+            DVec3::Z,
+            DVec3::new(0.2, 0.1, 0.2),
+            DVec3::new(0.4, 0.1, 0.2),
+            DVec3::new(0.2, 0.1, 0.4),
+        ];
         let triangles = [[0, 1, 2], [3, 4, 5]];
         assert_eq!(self_intersections(&x0, &triangles), 0);
         let mut x1 = x0.clone();

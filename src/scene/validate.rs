@@ -227,9 +227,11 @@ impl Scene {
             }
         }
         let m = &self.material;
-        for (key, k) in
-            [("material.pbd_stretch", m.pbd_stretch), ("material.pbd_bend", m.pbd_bend), ("material.compression", m.compression)]
-        {
+        for (key, k) in [
+            ("material.pbd_stretch", m.pbd_stretch),
+            ("material.pbd_bend", m.pbd_bend),
+            ("material.compression", m.compression),
+        ] {
             finite(key, k)?;
             if !(0.0..=1.0).contains(&k) {
                 return Err((key.into(), format!("is a fraction in [0, 1], got {k}")));

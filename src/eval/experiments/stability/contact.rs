@@ -49,7 +49,9 @@ pub fn rows(family: &str, quick: bool) -> Vec<Row> {
         ("pile", true) => vec![row("xpbd", 5.0, &[2.0, 16.0])],
         ("pile", false) => both.iter().flat_map(|&m| DROPS.iter().map(move |&y| row(m, y, &SUBSTEPS))).collect(),
         ("box", true) => vec![row("xpbd", 10.0, &[1.0, 1000.0])],
-        ("box", false) => both.iter().flat_map(|&m| BOX_SUBSTEPS.iter().map(move |&y| row(m, y, &MASS_RATIOS))).collect(),
+        ("box", false) => {
+            both.iter().flat_map(|&m| BOX_SUBSTEPS.iter().map(move |&y| row(m, y, &MASS_RATIOS))).collect()
+        }
         ("impact", true) => vec![row("cloth", 0.01, &[1.0, 30.0])],
         ("impact", false) => {
             let cloth = CLOTH_STEPS.iter().map(|&y| row("cloth", y, &SPEEDS));
@@ -79,7 +81,12 @@ fn substeps(method: &str, n: f64) -> Vec<String> {
 
 /// `scene` by `method` with `overrides`, its placement raised so that its lowest point is `gap`
 /// metres above `floor` (a height measured on the scene as written).
-fn raised(scene: &str, method: &str, overrides: &[String], gap: impl Fn(&Setup) -> (f64, f64)) -> Result<Setup, EvalError> {
+fn raised(
+    scene: &str,
+    method: &str,
+    overrides: &[String],
+    gap: impl Fn(&Setup) -> (f64, f64),
+) -> Result<Setup, EvalError> {
     let s = measure::setup(scene, method, overrides)?;
     let (floor, want) = gap(&s);
     let lowest = s.mesh.positions().iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
@@ -153,7 +160,8 @@ fn run_judged(s: &Setup, seconds: f64) -> Result<Probe, EvalError> {
 fn tunnelled(s: &Setup, solver: &dyn Solver, x: &[DVec3], t: f64) -> Option<String> {
     let edges = &s.mesh.topology().edges;
     let rest = s.mesh.positions();
-    let depth = 0.5 * edges.iter().map(|e| rest[e.v[0]].distance(rest[e.v[1]])).sum::<f64>() / edges.len().max(1) as f64;
+    let depth =
+        0.5 * edges.iter().map(|e| rest[e.v[0]].distance(rest[e.v[1]])).sum::<f64>() / edges.len().max(1) as f64;
     let midpoints = edges.iter().map(|e| 0.5 * (x[e.v[0]] + x[e.v[1]]));
     let points: Vec<DVec3> = x.iter().copied().chain(midpoints).collect();
     for (b, body) in s.bodies.iter().enumerate().filter(|(_, b)| b.mass.is_none()) {
@@ -173,4 +181,3 @@ fn tunnelled(s: &Setup, solver: &dyn Solver, x: &[DVec3], t: f64) -> Option<Stri
     let crossings = if s.scene.solver.self_collision { self_intersections(x, s.mesh.triangles()) } else { 0 };
     (crossings > 0).then(|| format!("the cloth crosses itself ({crossings} pair(s) of triangles)"))
 }
-

@@ -41,7 +41,11 @@ pub fn probe(method: &str, distance: f64, ramp: f64) -> Result<Probe, EvalError>
     let keys = if ramp > 0.0 { vec![key(0.0, DVec3::ZERO), key(ramp, offset)] } else { vec![key(0.0, offset)] };
     measure::add_track(&mut s, vec![VERTEX], keys);
     let rest = s.mesh.positions().to_vec();
-    let run = measure::run(measure::build(&s)?.as_mut(), &rest, Stop { max_time: ramp + HOLD, max_steps: u64::MAX, rest: 0.0 });
+    let run = measure::run(
+        measure::build(&s)?.as_mut(),
+        &rest,
+        Stop { max_time: ramp + HOLD, max_steps: u64::MAX, rest: 0.0 },
+    );
     let area = measure::area_change(&run.positions, &s);
     Ok(Probe::new(run, f64::NAN, area, true, None))
 }

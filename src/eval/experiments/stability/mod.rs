@@ -176,7 +176,13 @@ const FAMILIES: [Family; 5] = [
     Family { name: "drag", x_label: "drag distance (m)", y_label: "ramp (s)", y_key: "ramp", integer: false },
     Family { name: "pile", x_label: "substeps per 1/60 s", y_label: "drop (m)", y_key: "drop", integer: true },
     Family { name: "box", x_label: "box : cloth mass", y_label: "substeps", y_key: "substeps", integer: false },
-    Family { name: "impact", x_label: "impact speed (m/s)", y_label: "step (s) / substeps", y_key: "y", integer: false },
+    Family {
+        name: "impact",
+        x_label: "impact speed (m/s)",
+        y_label: "step (s) / substeps",
+        y_key: "y",
+        integer: false,
+    },
 ];
 
 /// One row of a family: a method, the second axis's value and the first axis's grid.
@@ -247,7 +253,9 @@ impl Experiment for Stability {
     fn cases(&self, quick: bool) -> Vec<String> {
         FAMILIES
             .iter()
-            .flat_map(|f| rows(f.name, quick).into_iter().map(move |r| format!("{}/{}/{}={}", f.name, r.method, f.y_key, r.y)))
+            .flat_map(|f| {
+                rows(f.name, quick).into_iter().map(move |r| format!("{}/{}/{}={}", f.name, r.method, f.y_key, r.y))
+            })
             .collect()
     }
 
@@ -256,7 +264,11 @@ impl Experiment for Stability {
         let mut parts = case.splitn(3, '/');
         let (Some(name), Some(method), Some(y)) = (parts.next(), parts.next(), parts.next()) else { return Err(bad()) };
         let family = family(name)?;
-        let y: f64 = y.strip_prefix(family.y_key).and_then(|v| v.strip_prefix('=')).and_then(|v| v.parse().ok()).ok_or_else(bad)?;
+        let y: f64 = y
+            .strip_prefix(family.y_key)
+            .and_then(|v| v.strip_prefix('='))
+            .and_then(|v| v.parse().ok())
+            .ok_or_else(bad)?;
         let row = rows(name, quick).into_iter().find(|r| r.method == method && r.y == y).ok_or_else(bad)?;
         let mut table = Table::new(COLUMNS);
         let mut push = |x: f64, what: &str, p: &Probe, failed_at: f64| {
@@ -419,7 +431,10 @@ fn panels(table: &Table, c: &Columns, family: &str) -> Vec<MapPanel> {
             MapPanel {
                 title: name.clone(),
                 columns: xs.iter().map(|&x| number(x)).collect(),
-                rows: ys.iter().map(|&y| if family == "drag" && y == 0.0 { "jump".into() } else { number(y) }).collect(),
+                rows: ys
+                    .iter()
+                    .map(|&y| if family == "drag" && y == 0.0 { "jump".into() } else { number(y) })
+                    .collect(),
                 cells,
                 marker,
             }
@@ -466,7 +481,11 @@ fn findings(table: &Table, c: &Columns) -> Vec<String> {
                 }
                 s += &format!(": \"{}\"", b[c.message].text());
                 if b[c.ratio].num().is_finite() {
-                    s += &format!("; its estimate 2/ω_max = {} s, a ratio of {}", bold(b[c.limit].num()), bold(b[c.ratio].num()));
+                    s += &format!(
+                        "; its estimate 2/ω_max = {} s, a ratio of {}",
+                        bold(b[c.limit].num()),
+                        bold(b[c.ratio].num())
+                    );
                 }
                 out.push(s + ".");
             }
@@ -478,7 +497,11 @@ fn findings(table: &Table, c: &Columns) -> Vec<String> {
                 .collect();
             if !whole.is_empty() {
                 let worst = grid.iter().filter(|r| whole.contains(&r[c.y].num()));
-                let area = worst.clone().map(|r| r[c.area].num()).filter(|a| a.is_finite()).max_by(|a, b| a.abs().total_cmp(&b.abs()));
+                let area = worst
+                    .clone()
+                    .map(|r| r[c.area].num())
+                    .filter(|a| a.is_finite())
+                    .max_by(|a, b| a.abs().total_cmp(&b.abs()));
                 let mut classes: Vec<String> = worst.map(|r| r[c.outcome].text()).collect();
                 classes.sort();
                 classes.dedup();
@@ -494,7 +517,11 @@ fn findings(table: &Table, c: &Columns) -> Vec<String> {
             }
             if !grid.iter().any(|r| failed(&r[c.outcome])) {
                 let inaccurate = grid.iter().filter(|r| r[c.outcome].text() == "inaccurate").count();
-                out.push(format!("`{name}` ({}): no failure in {} cells ({inaccurate} inaccurate).", family.name, grid.len()));
+                out.push(format!(
+                    "`{name}` ({}): no failure in {} cells ({inaccurate} inaccurate).",
+                    family.name,
+                    grid.len()
+                ));
             }
         }
     }

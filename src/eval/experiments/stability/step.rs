@@ -110,7 +110,11 @@ fn reference(method: &str, stiffness: f64) -> Result<Arc<Reference>, EvalError> 
     if let Some(r) = MADE.lock().ok().and_then(|m| m.as_ref()?.get(&key).cloned()) {
         return Ok(r);
     }
-    let made = Arc::new(if SHELLS.contains(&method) { shell_reference(stiffness)? } else { cloth_reference(method, stiffness)? });
+    let made = Arc::new(if SHELLS.contains(&method) {
+        shell_reference(stiffness)?
+    } else {
+        cloth_reference(method, stiffness)?
+    });
     if let Ok(mut m) = MADE.lock() {
         m.get_or_insert_with(HashMap::new).insert(key, made.clone());
     }
