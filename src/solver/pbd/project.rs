@@ -228,8 +228,13 @@ pub(super) struct Read<N, const K: usize, const F: usize> {
 /// Each constraint's `Δλ` in a batch's lanes, and each particle's move (the sum of `w_i ∇_i C Δλ`).
 pub(super) type Projected<N, const K: usize, const F: usize> = ([N; F], [V3<N>; K]);
 
+/// Below this fraction of `max w · Σ |∇C|²`, `Σ w |∇C|²` says the movable particles cannot change the
+/// constraint (their gradient is single-precision rounding, about 1e-7 of the whole, squared 1e-14);
+/// above it, a particle's move `C/|∇C|` stays within 1e4 × the constraint's own scale.
+const LOCKED: f64 = 1e-8;
+
 /// One constraint's projection: `Δλ` by the rule, and its particles' moves `w_i ∇_i C Δλ` (none for a
-/// constraint without movable particles, or degenerate).
+/// constraint without movable particles, one its movable particles cannot change, or degenerate).
 #[inline(always)]
 fn step<N: Real, R: Rule, const K: usize>(
     c: N,
@@ -242,12 +247,19 @@ fn step<N: Real, R: Rule, const K: usize>(
     let zero = c.constant(0.0);
     // Loops, not closures, in this module's arithmetic: a closure the compiler declines to inline
     // would run without the dispatched instruction set.
-    let mut denominator = zero;
+    let (mut denominator, mut total, mut heaviest) = (zero, zero, zero);
     for (&w, &g) in w.iter().zip(&g) {
-        denominator = denominator + w * real::dot(g, g);
+        let gg = real::dot(g, g);
+        denominator = denominator + w * gg;
+        total = total + gg;
+        heaviest = N::select(heaviest.less(w), w, heaviest);
     }
     let delta = rule.delta(c, denominator, compliance, lambda);
-    let delta = N::select(zero.less(denominator), delta, zero);
+    // A constraint its movable particles cannot change — their share of the gradient is rounding,
+    // e.g. a hinge whose one free end turns about the line through its fixed wings — is left alone:
+    // its `C / Σ w|∇C|²` is noise over noise.
+    let movable = (c.constant(LOCKED) * heaviest * total).less(denominator);
+    let delta = N::select(movable, delta, zero);
     let delta = N::select(delta.abs().less(c.constant(f64::INFINITY)), delta, zero);
     let mut steps = g;
     for (step, &w) in steps.iter_mut().zip(w) {
@@ -583,6 +595,20 @@ mod tests {
         let before = flat;
         least_area(&triangles, &[0, 1], &x, &mut flat, &w, &double_areas, 0.2);
         assert_eq!(flat[3..], before[3..]);
+    }
+
+    /// A hinge whose only free end turns about the line through its fixed wings (its gradient there is
+    /// rounding) is left alone; the same hinge with a free wing is projected. Before, the first one's
+    /// `C / Σ w|∇C|²` moved the free end kilometres in a step (a sheet clamped along an edge by `pbd`).
+    #[test]
+    fn a_constraint_its_free_particles_cannot_change_is_left_alone() {
+        let g = [[1e-9, 2e-9, 0.0], [0.0, 24.0, 0.0], [0.0, -12.0, 0.0], [0.0, -12.0, 0.0]];
+        let (delta, moves) = step(1e-9, g, &[2160.0, 0.0, 0.0, 0.0], 0.0, 0.0, Stiffness(0.05));
+        assert_eq!(delta, 0.0);
+        assert!(moves.iter().all(|m| m.iter().all(|&v| v == 0.0)), "{moves:?}");
+        let (delta, moves) = step(1e-3, g, &[2160.0, 2160.0, 0.0, 0.0], 0.0, 0.0, Stiffness(0.05));
+        let want = -0.05 * 1e-3 / (2160.0 * (24.0f64 * 24.0 + 5e-18));
+        assert!((delta - want).abs() <= 1e-12 * want.abs() && moves[1][1] < 0.0, "{delta} against {want}");
     }
 
     #[test]
