@@ -90,7 +90,10 @@ impl Cache {
         let write = || -> std::io::Result<()> {
             let parent = path.parent().ok_or(std::io::ErrorKind::NotFound)?;
             std::fs::create_dir_all(parent)?;
-            let tmp = parent.join(format!(".{}.{}.tmp", key(p), std::process::id()));
+            // Unique per process and per store within it (threads of one evaluation share a process).
+            static STORES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+            let n = STORES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let tmp = parent.join(format!(".{:016x}.{}.{n}.tmp", key(p), std::process::id()));
             let mut f = std::fs::File::create(&tmp)?;
             f.write_all(&bytes)?;
             f.sync_all()?;
