@@ -9,13 +9,16 @@ use shellwarp::app::sim_thread::{Command, Pacing, SimHandle, SimStatus, Snapshot
 use shellwarp::solver::{DragSet, ParamValue, Progress, Solver, SolverError, StepStats};
 
 /// A solver whose every vertex sits at (k, k, k) after step k; `delay` makes steps slow, `diverge_at`
-/// makes that step fail (once) with non-finite positions, and `work` is background progress the test sets.
+/// makes that step fail (once) with non-finite positions, `panic_at` makes it panic (once, and once
+/// more in the reset after it when `panic_on_reset`), and `work` is background progress the test sets.
 struct Counter {
     positions: Vec<DVec3>,
     k: u64,
     h: f64,
     delay: Duration,
     diverge_at: Option<u64>,
+    panic_at: Option<u64>,
+    panic_on_reset: bool,
     work: Arc<Mutex<Option<f32>>>,
     drags: DragSet,
 }
@@ -28,6 +31,8 @@ impl Counter {
             h,
             delay,
             diverge_at: None,
+            panic_at: None,
+            panic_on_reset: false,
             work: Arc::default(),
             drags: DragSet::new(n, true),
         }
@@ -48,6 +53,10 @@ impl Solver for Counter {
     fn step(&mut self) -> Result<StepStats, SolverError> {
         std::thread::sleep(self.delay);
         self.k += 1;
+        if self.panic_at == Some(self.k) {
+            self.panic_at = None;
+            panic!("index out of bounds in the test solver at step {}", self.k);
+        }
         if self.diverge_at == Some(self.k) {
             self.diverge_at = None; // once
             self.positions.iter_mut().for_each(|p| *p = DVec3::NAN);
@@ -61,6 +70,9 @@ impl Solver for Counter {
         &self.positions
     }
     fn reset(&mut self) {
+        if std::mem::take(&mut self.panic_on_reset) {
+            panic!("the test solver's reset panics once");
+        }
         self.k = 0;
         self.positions.iter_mut().for_each(|p| *p = DVec3::ZERO);
     }
@@ -209,4 +221,32 @@ fn commands_pause_step_reset_and_report_errors() {
     sim.send(Command::Reset);
     sim.send(Command::SetPaused(true));
     assert!(wait_for(&mut sim, |s| s.status == SimStatus::Paused && s.steps < 50));
+}
+
+/// A solver that panics inside the simulation thread is reported with its message, the thread keeps
+/// answering, and Reset (after a reset that panics too) or another method recovers.
+#[test]
+fn a_panicking_solver_is_reported_and_reset_or_a_new_method_recovers() {
+    let mut counter = Counter::new(20, 0.01, Duration::ZERO);
+    counter.panic_at = Some(7);
+    counter.panic_on_reset = true;
+    let mut sim = SimHandle::spawn(Box::new(counter), false, Pacing::AsFastAsPossible);
+    let panicked =
+        |s: &Snapshot| matches!(&s.status, SimStatus::Diverged(r) if r.contains("panicked") && r.contains("step 7"));
+    assert!(wait_for(&mut sim, panicked), "the panic was not reported: {:?}", sim.latest().status);
+    let snap = sim.latest();
+    assert_eq!(snap.steps, 6);
+    assert!(snap.positions.iter().all(|p| *p == DVec3::splat(6.0)), "shows the last finished step");
+    // The first reset panics too: reported, and the thread still answers the next one.
+    sim.send(Command::Reset);
+    assert!(wait_for(&mut sim, |s| s.last_error.as_deref().is_some_and(|e| e.contains("reset panics"))));
+    sim.send(Command::Reset);
+    assert!(wait_for(&mut sim, |s| s.status == SimStatus::Running && s.steps > 20), "Reset did not recover");
+    // Another panic, then a method switch recovers as well.
+    let mut again = Counter::new(20, 0.01, Duration::ZERO);
+    again.panic_at = Some(3);
+    sim.send(Command::Replace(Box::new(again)));
+    assert!(wait_for(&mut sim, |s| matches!(&s.status, SimStatus::Diverged(r) if r.contains("panicked"))));
+    sim.send(Command::Replace(Counter::boxed(20, 0.01, Duration::ZERO)));
+    assert!(wait_for(&mut sim, |s| s.status == SimStatus::Running && s.steps > 20), "a new method did not recover");
 }

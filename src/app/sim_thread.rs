@@ -2,6 +2,7 @@
 //! commands through a channel and hands finished snapshots to the renderer through a wait-free
 //! triple buffer, so neither side ever blocks the other and the reader never sees a half-written frame.
 
+use std::panic::AssertUnwindSafe;
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -260,10 +261,26 @@ impl SimLoop {
         self.solver.progress() != self.shown_progress
     }
 
-    /// Apply one command; returns false on Quit.
+    /// Apply one command; returns false on Quit. A solver that panics while applying it is stopped
+    /// as a divergence would be, with the panic's message.
     fn apply(&mut self, command: Command) -> bool {
+        if matches!(command, Command::Quit) {
+            return false;
+        }
+        match std::panic::catch_unwind(AssertUnwindSafe(|| self.apply_one(command))) {
+            Ok(result) => self.last_error = result.err().map(|e| e.to_string()),
+            Err(payload) => {
+                let message = panicked(payload.as_ref());
+                self.last_error = Some(message.clone());
+                self.diverged = Some(message);
+            }
+        }
+        true
+    }
+
+    fn apply_one(&mut self, command: Command) -> Result<(), SolverError> {
         let ghost = self.ghost.as_mut();
-        let result: Result<(), SolverError> = match command {
+        match command {
             Command::SetParam(name, value) => self.solver.set_param(&name, value),
             Command::AddDrag(id, drag) => {
                 if let Some(g) = ghost {
@@ -333,18 +350,18 @@ impl SimLoop {
                 self.restart();
                 Ok(())
             }
-            Command::Quit => return false,
-        };
-        self.last_error = result.err().map(|e| e.to_string());
-        true
+            Command::Quit => Ok(()),
+        }
     }
 
     fn step(&mut self) {
         if self.diverged.is_some() {
             return;
         }
-        match self.solver.step() {
-            Ok(stats) => {
+        // A panicking solver stops as a diverging one does; the thread, and the window, go on.
+        let stepped = std::panic::catch_unwind(AssertUnwindSafe(|| self.solver.step()));
+        match stepped.map_err(|payload| panicked(payload.as_ref())) {
+            Ok(Ok(stats)) => {
                 self.stats = stats;
                 self.steps += 1;
                 self.time = stats.sim_time;
@@ -353,7 +370,8 @@ impl SimLoop {
                     g.follow(self.time, self.solver.positions());
                 }
             }
-            Err(e) => self.diverged = Some(e.to_string()),
+            Ok(Err(e)) => self.diverged = Some(e.to_string()),
+            Err(message) => self.diverged = Some(message),
         }
     }
 
@@ -424,4 +442,11 @@ impl SimLoop {
             }
         }
     }
+}
+
+/// What a solver's panic said, for the panel: its message (a string payload) or that it had none.
+fn panicked(payload: &(dyn std::any::Any + Send)) -> String {
+    let what =
+        payload.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| payload.downcast_ref::<String>().cloned());
+    format!("the solver panicked: {}; Reset or another method recovers", what.as_deref().unwrap_or("(no message)"))
 }
