@@ -10,6 +10,11 @@ use glam::{DMat3, DQuat, DVec3};
 
 use crate::collision::{Body, Shape};
 
+/// Points along one edge of a box at most: a box more than this many half cloth edges long is sampled
+/// more coarsely along its edges (its faces still push every particle) instead of asking for memory
+/// in proportion to its size (a box of a kilometre on a centimetre cloth once asked for 2 TB).
+pub const MAX_EDGE_SAMPLES: usize = 1024;
+
 /// One collider's state.
 #[derive(Debug, Clone)]
 pub struct Rigid {
@@ -180,7 +185,8 @@ impl Rigid {
     }
 
     /// The points a small body tests against cloth triangles, world frame: a box's corners and points
-    /// along its edges at most `spacing` apart; none for other shapes.
+    /// along its edges at most `spacing` apart (at most [`MAX_EDGE_SAMPLES`] an edge); none for other
+    /// shapes.
     pub fn samples(&self, spacing: f64) -> Vec<DVec3> {
         let Shape::Cuboid { half } = self.body.shape else { return Vec::new() };
         let corner = |i: usize| {
@@ -195,7 +201,7 @@ impl Rigid {
             for bit in [1, 2, 4] {
                 if i & bit == 0 {
                     let (a, b) = (corner(i), corner(i | bit));
-                    let n = ((b - a).length() / spacing.max(1e-9)).ceil() as usize;
+                    let n = ((b - a).length() / spacing.max(1e-9)).ceil().min(MAX_EDGE_SAMPLES as f64) as usize;
                     local.extend((1..n).map(|k| a + (b - a) * (k as f64 / n as f64)));
                 }
             }
@@ -208,4 +214,23 @@ impl Rigid {
 fn integrate(q: DQuat, w: DVec3) -> DQuat {
     let dq = DQuat::from_xyzw(w.x, w.y, w.z, 0.0) * q;
     (q + dq * 0.5).normalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::collision::Motion;
+
+    /// Found by the fuzzer (`tests/fuzz.rs`): a scene's box mutated to a kilometre beside a fine cloth
+    /// made the edge samples ask for 2 TB and abort the program.
+    #[test]
+    fn a_box_a_kilometre_wide_beside_a_fine_cloth_is_sampled_without_asking_for_terabytes() {
+        let body = Body::scripted(Shape::Cuboid { half: DVec3::splat(1e3) }, DVec3::ZERO, Motion::default());
+        let samples = Rigid::new(&body).samples(1e-4);
+        assert_eq!(samples.len(), 8 + 12 * (MAX_EDGE_SAMPLES - 1));
+        assert!(samples.iter().all(|p| p.abs().max_element() <= 1e3 + 1e-9));
+        // A small box is sampled at the spacing asked for: corners and 3 points inside each edge.
+        let small = Body::scripted(Shape::Cuboid { half: DVec3::splat(0.1) }, DVec3::ZERO, Motion::default());
+        assert_eq!(Rigid::new(&small).samples(0.05).len(), 8 + 12 * 3);
+    }
 }
