@@ -290,19 +290,22 @@ impl Experiment for Stability {
                 ("cost", p.run.cost().into()),
             ])
         };
-        let mut classes = Vec::new();
+        let mut grid = Vec::new();
         for (i, &x) in row.xs.iter().enumerate() {
             let p = probe(name, method, x, y)?;
-            classes.push(p.class);
             push(x, "grid", &p, f64::NAN)?;
+            grid.push(p);
             progress((i + 1) as f32 / (row.xs.len() + bisections(quick)) as f32);
         }
         // Narrow the first change between working and failed cells.
+        let classes: Vec<Class> = grid.iter().map(|p| p.class).collect();
         let Some((mut ok, mut bad_x)) = transition(&row.xs, &classes) else { return Ok(table) };
-        if classes[row.xs.iter().position(|&x| x == ok).unwrap_or(0)].failed() {
+        let at = |x: f64| row.xs.iter().position(|&v| v == x).unwrap_or(0);
+        if classes[at(ok)].failed() {
             std::mem::swap(&mut ok, &mut bad_x);
         }
-        let mut failing = probe(name, method, bad_x, y)?;
+        // The failed grid cell is the failure nearest the boundary until a bisection finds a nearer one.
+        let mut failing = grid.swap_remove(at(bad_x));
         for k in 0..bisections(quick) {
             let Some(mid) = middle(ok, bad_x, family.integer) else { break };
             let p = probe(name, method, mid, y)?;
