@@ -5,10 +5,12 @@
 //! The [`app`] ties solver and renderer together; nothing below it knows about it.
 
 pub mod app;
+pub mod atomic;
 pub mod collision;
 pub mod energy;
 pub mod eval;
 pub mod linalg;
+pub mod memory;
 pub mod mesh;
 pub mod render;
 pub mod scene;

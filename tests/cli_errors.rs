@@ -31,6 +31,12 @@ fn one_line_failure(what: &str, out: &Output, expected: &[&str]) -> String {
     err
 }
 
+/// Arguments rendering the cantilever, undeformed, at `size` to `png`.
+fn render_rigid<'a>(size: &'a str, png: &'a Path) -> [&'a str; 11] {
+    let out = png.to_str().unwrap();
+    ["render", "-s", "cantilever", "-m", "rigid", "--frames", "0", "--size", size, "--out", out]
+}
+
 fn run(args: &[&str]) -> Output {
     shellwarp().args(args).output().expect("the binary runs")
 }
@@ -72,19 +78,7 @@ fn a_mesh_error_is_printed_once() {
 fn unwritable_outputs_name_the_path_once() {
     let dir = scratch("outputs");
     let png = dir.path().join("no-such-dir/x.png");
-    let out = run(&[
-        "render",
-        "-s",
-        "cantilever",
-        "-m",
-        "rigid",
-        "--frames",
-        "0",
-        "--size",
-        "64x48",
-        "--out",
-        png.to_str().unwrap(),
-    ]);
+    let out = run(&render_rigid("64x48", &png));
     let err = one_line_failure("render --out", &out, &["cannot write PNG"]);
     assert_eq!(err.matches("x.png").count(), 1, "{err}");
     let obj = dir.path().join("no-such-dir/x.obj");
@@ -117,6 +111,44 @@ fn render_sizes_beyond_the_gpu_or_memory_are_clear_errors() {
     } else {
         one_line_failure("8192x8192 under ulimit", &out, &[]);
     }
+}
+
+#[test]
+fn work_needing_more_memory_than_the_machine_is_refused_up_front_with_the_estimate() {
+    // A placement whose copies overflow any budget (it grew the fuzzer to 24 GB before this check).
+    let out = run(&["sim", "-s", "cantilever", "--set", "placement.copies=4294967296"]);
+    one_line_failure("4294967296 copies", &out, &["`placement.copies`: too large: 880468295680 vertices"]);
+
+    // The rest against a budget set small (`SHELLWARP_MEMORY`, bytes), each with its estimate.
+    let small = |args: &[&str], budget: &str| shellwarp().args(args).env("SHELLWARP_MEMORY", budget).output().unwrap();
+    // 20 creatures: 259,240 vertices at about 25 KB each for `mwts` with 4 modes.
+    let out = small(&["sim", "-s", "creature", "--set", "placement.copies=20"], "2000000000");
+    one_line_failure(
+        "20 creatures in 2 GB",
+        &out,
+        &["`mwts` with 4 modes on 259240 vertices would need about 6.47 GB of memory; this machine has 2.00 GB"],
+    );
+    // The same on a particle method fits: about 1 GB.
+    let out =
+        small(&["sim", "-s", "creature", "-m", "xpbd", "--steps", "1", "--set", "placement.copies=20"], "2000000000");
+    assert!(out.status.success(), "xpbd on 20 creatures fits 2 GB: {}", String::from_utf8_lossy(&out.stderr));
+    // An OBJ file is sized before it is read.
+    let dir = scratch("obj-budget");
+    let obj = dir.path().join("tri.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, "name = \"s\"\n[mesh.obj]\npath = \"tri.obj\"\n[solver]\nmethod = \"rigid\"\n").unwrap();
+    let out = small(&["sim", "-s", scene.to_str().unwrap(), "--steps", "1"], "100");
+    one_line_failure(
+        "a 32-byte OBJ in 100 bytes",
+        &out,
+        &["tri.obj would need about 512 bytes of memory; this machine has 100 bytes"],
+    );
+    // A picture: 4 million pixels at 64 bytes.
+    let png = dir.path().join("big.png");
+    let out = small(&render_rigid("2000x2000", &png), "100000000");
+    one_line_failure("2000x2000 in 100 MB", &out, &["a 2000x2000 picture would need about 256 MB of memory"]);
+    assert!(!png.exists());
 }
 
 #[test]

@@ -1,16 +1,30 @@
-//! Fuzzed scenes: the built-in scenes mutated at the byte and token level (numbers replaced by
-//! hostile values, bytes changed, lines repeated or dropped) with hostile `--set` overrides, each
-//! parsed, realised, built and stepped a few times in-process. Every case must end in a clean error
-//! or in finite positions — never a panic, a non-finite state reported as fine, or a hang (each case
-//! runs on its own thread with a deadline). The generator is a seeded xorshift, so a failing case is
+//! Fuzzed inputs: the built-in scenes mutated at the byte and token level (numbers replaced by
+//! hostile values, bytes changed, lines repeated or dropped) with hostile `--set` overrides; OBJ
+//! files with hostile numbers and indices, degenerate, doubled and non-manifold faces, huge polygons
+//! and thousands of unused vertices, run by every kind of method; and damaged mode-cache files
+//! (truncated, bit-flipped, from another mesh, spliced, padded, random). A scene or OBJ case is parsed,
+//! realised, built and stepped a few times in-process and must end in a clean error or in finite
+//! positions — never a panic, a non-finite state reported as fine, or a hang (each case runs on its
+//! own thread with a deadline); a cache case must load only the clean file, and then exactly. Cases
+//! run under a 2 GB memory budget (`memory::limit_to`), so work a mutation makes huge is refused by
+//! its estimate rather than run for minutes. The generator is a seeded xorshift, so a failing case is
 //! named by its seed and replayed by it. A short run is in the suite; the long one is
-//! `cargo test --release --test fuzz -- --ignored` (`SHELLWARP_FUZZ_CASES`, default 100,000).
+//! `cargo test --release --test fuzz -- --ignored a_long` (`SHELLWARP_FUZZ_CASES`, default 100,000, from
+//! seed `SHELLWARP_FUZZ_FIRST`, default 1,000,000), which prints every case as it runs and stops,
+//! naming the case, if the process grows past a third of the machine's memory.
 
+use std::io::Write;
+use std::path::Path;
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
+use shellwarp::energy::shell::ShellStiffness;
 use shellwarp::scene::{self, BUILTIN, Origin, Setup};
 use shellwarp::solver;
+use shellwarp::solver::modal::cache::Cache;
+use shellwarp::solver::modal::compute::{ModalAnalysis, ModalProblem, analyse};
 
 /// xorshift64*: enough randomness to mutate text, and replayable from a seed.
 struct Rng(u64);
@@ -143,6 +157,8 @@ enum Outcome {
     Panicked(String),
     /// Positions went non-finite without an error.
     NonFinite,
+    /// A damaged mode-cache file was trusted, with what came back.
+    Trusted(String),
     /// Past the deadline.
     Hung,
 }
@@ -161,11 +177,22 @@ fn case(seed: u64) -> (&'static str, String, Vec<String>) {
     (name, text, overrides)
 }
 
-/// Parse, realise, build and step case `seed`.
+/// What case `seed` fuzzes: seven in ten a scene, two an OBJ file, one a mode-cache file.
 fn run_case(seed: u64) -> Outcome {
-    let (name, text, overrides) = case(seed);
-    let origin = Origin { label: format!("fuzz/{name}-{seed}.toml"), dir: env!("CARGO_MANIFEST_DIR").into() };
-    let Ok(parsed) = scene::parse(&text, &origin, &overrides) else { return Outcome::Refused };
+    match seed % 10 {
+        0..=6 => {
+            let (name, text, overrides) = case(seed);
+            let origin = Origin { label: format!("fuzz/{name}-{seed}.toml"), dir: env!("CARGO_MANIFEST_DIR").into() };
+            run_scene(&text, origin, &overrides)
+        }
+        7 | 8 => run_obj_case(seed),
+        _ => run_cache_case(seed),
+    }
+}
+
+/// Parse, realise, build and step a scene.
+fn run_scene(text: &str, origin: Origin, overrides: &[String]) -> Outcome {
+    let Ok(parsed) = scene::parse(text, &origin, overrides) else { return Outcome::Refused };
     let Ok(setup) = Setup::new(parsed, origin) else { return Outcome::Refused };
     let Ok(mut s) = solver::build(&setup) else { return Outcome::Refused };
     for _ in 0..3 {
@@ -174,6 +201,159 @@ fn run_case(seed: u64) -> Outcome {
         }
     }
     if s.positions().iter().all(|p| p.is_finite()) { Outcome::Ran } else { Outcome::NonFinite }
+}
+
+/// The campaign's scratch folder (OBJ files and caches of its cases).
+fn scratch() -> &'static Path {
+    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    DIR.get_or_init(|| tempfile::Builder::new().prefix("shellwarp-fuzz-").tempdir().unwrap()).path()
+}
+
+/// A valid OBJ sheet of `nx × ny` quads split into triangles.
+fn grid_obj(nx: usize, ny: usize) -> String {
+    let mut t = String::new();
+    for j in 0..=ny {
+        for i in 0..=nx {
+            t += &format!("v {} {} 0\n", i as f64 / nx as f64 - 0.5, j as f64 / ny as f64);
+        }
+    }
+    let at = |i: usize, j: usize| j * (nx + 1) + i + 1;
+    for j in 0..ny {
+        for i in 0..nx {
+            t += &format!(
+                "f {} {} {}\nf {} {} {}\n",
+                at(i, j),
+                at(i + 1, j),
+                at(i + 1, j + 1),
+                at(i, j),
+                at(i + 1, j + 1),
+                at(i, j + 1)
+            );
+        }
+    }
+    t
+}
+
+/// Case `seed` as an OBJ file: its text and the method that runs it.
+fn obj_case(seed: u64) -> (String, &'static str) {
+    let mut rng = Rng::new(seed);
+    let (nx, ny) = (1 + rng.below(6), 1 + rng.below(6));
+    let mut t = grid_obj(nx, ny);
+    let vertices = (nx + 1) * (ny + 1);
+    for _ in 0..rng.below(4) {
+        match rng.below(7) {
+            0 => {
+                // A face index made hostile.
+                const BAD: [&str; 8] =
+                    ["0", "-1", "-100000", "4294967296", "18446744073709551616", "1/2/3", "x", "99999999"];
+                let faces: Vec<usize> = t.match_indices("\nf ").map(|(i, _)| i + 3).collect();
+                if let Some(&at) = faces.get(rng.below(faces.len())) {
+                    let end = at + t[at..].find(' ').unwrap_or(0);
+                    t.replace_range(at..end, rng.pick(&BAD));
+                }
+            }
+            1 => t += &format!("f 1 1 {}\n", 1 + rng.below(vertices)), // degenerate
+            2 => t += "f 1 2 3\nf 2 1 3\nf 1 2 4\n",                   // doubled, non-manifold
+            3 => {
+                // A polygon of many corners, some repeated.
+                let n = 3 + rng.below(20_000);
+                t += &format!("f {}\n", (0..n).map(|k| (1 + k % vertices).to_string()).collect::<Vec<_>>().join(" "));
+            }
+            4 => t += &"v 0 0 0\n".repeat(rng.below(100_000)), // many unreferenced vertices
+            5 => t = t.replacen("v ", &format!("v {} ", rng.pick(&HOSTILE)), 1),
+            _ => t = mutate(&t, &mut rng),
+        }
+    }
+    const METHODS: [&str; 8] = ["rigid", "xpbd", "pbd", "cloth", "lma", "mwts", "mwts-rs", "ds-implicit"];
+    (t, METHODS[rng.below(METHODS.len())])
+}
+
+/// Load case `seed`'s OBJ file as a scene's mesh (anchored along one side) and step it.
+fn run_obj_case(seed: u64) -> Outcome {
+    let (obj, method) = obj_case(seed);
+    let file = format!("obj-{seed}.obj");
+    std::fs::write(scratch().join(&file), obj).unwrap();
+    let text = format!(
+        "name = \"fuzz-obj\"\n[mesh.obj]\npath = \"{file}\"\n[[anchors]]\nbox = {{ min = [-1.0, -1.0, -1.0], max = [-0.45, 2.0, 1.0] }}\n[solver]\nmethod = \"{method}\"\n"
+    );
+    let outcome =
+        run_scene(&text, Origin { label: format!("fuzz/obj-{seed}.toml"), dir: scratch().to_path_buf() }, &[]);
+    let _ = std::fs::remove_file(scratch().join(&file));
+    outcome
+}
+
+/// A small anchored strip's modal problem; `segments` makes a different mesh.
+struct Strip {
+    mesh: shellwarp::mesh::TriMesh,
+    masses: Vec<f64>,
+}
+
+impl Strip {
+    fn new(segments: usize) -> Self {
+        let mesh = shellwarp::mesh::generate::grid([0.4, 0.1], [segments, 2]).unwrap();
+        let masses = mesh.vertex_areas().iter().map(|a| 0.5 * a).collect();
+        Self { mesh, masses }
+    }
+    fn problem(&self) -> ModalProblem<'_> {
+        let stiffness = ShellStiffness { k_area: 10.0, k_length: 10.0, k_bend: 0.05 };
+        ModalProblem {
+            mesh: &self.mesh,
+            anchors: &[0, 1, 2, 3, 4, 5],
+            masses: &self.masses,
+            stiffness,
+            modes: 3,
+            keep_rigid: false,
+        }
+    }
+}
+
+/// The two strips, the first's analysis, and both cache files' bytes, made once.
+fn cache_fixture() -> &'static (Strip, ModalAnalysis, Vec<u8>, Vec<u8>) {
+    static FIXTURE: OnceLock<(Strip, ModalAnalysis, Vec<u8>, Vec<u8>)> = OnceLock::new();
+    FIXTURE.get_or_init(|| {
+        let cache = Cache::at(scratch().join("clean"));
+        let bytes = |strip: &Strip| {
+            let analysis = analyse(&strip.problem(), &|_| {}).unwrap();
+            cache.store(&strip.problem(), &analysis);
+            (analysis, std::fs::read(cache.path(&strip.problem()).unwrap()).unwrap())
+        };
+        let (a, b) = (Strip::new(8), Strip::new(10));
+        let ((analysis, a_bytes), (_, b_bytes)) = (bytes(&a), bytes(&b));
+        (a, analysis, a_bytes, b_bytes)
+    })
+}
+
+/// Case `seed` as a damaged cache file: the first strip's entry truncated, bit-flipped, replaced by
+/// the other mesh's, spliced, padded or random. It must load only if it is the clean file, and then
+/// exactly.
+fn run_cache_case(seed: u64) -> Outcome {
+    let (strip, clean, good, other) = cache_fixture();
+    let mut rng = Rng::new(seed);
+    let mut bytes = good.clone();
+    match rng.below(6) {
+        0 => bytes.truncate(rng.below(good.len() + 1)),
+        1 => {
+            for _ in 0..1 + rng.below(8) {
+                let at = rng.below(bytes.len());
+                bytes[at] ^= 1 << rng.below(8);
+            }
+        }
+        2 => bytes = other.clone(),
+        3 => bytes = [&good[..rng.below(good.len())], &other[rng.below(other.len())..]].concat(),
+        4 => bytes.extend((0..1 + rng.below(64)).map(|_| rng.next() as u8)),
+        _ => bytes = (0..rng.below(2 * good.len())).map(|_| rng.next() as u8).collect(),
+    }
+    let cache = Cache::at(scratch().join(format!("cache-{seed}")));
+    let path = cache.path(&strip.problem()).unwrap();
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    std::fs::write(&path, &bytes).unwrap();
+    let loaded = cache.load(&strip.problem());
+    let _ = std::fs::remove_dir_all(path.parent().unwrap());
+    match (loaded, bytes == *good) {
+        (None, false) => Outcome::Refused,
+        (Some(a), true) if a == *clean => Outcome::Ran,
+        (got, _) => Outcome::Trusted(format!("{} bytes loaded as {:?}", bytes.len(), got.map(|a| a.residuals))),
+    }
 }
 
 /// Case `seed` on its own thread, given `deadline`.
@@ -189,14 +369,53 @@ fn guarded(seed: u64, deadline: Duration) -> Outcome {
     rx.recv_timeout(deadline).unwrap_or(Outcome::Hung)
 }
 
-/// Run `cases` seeds from `first`; the failures by seed, and the counts.
-fn campaign(first: u64, cases: u64) -> (Vec<(u64, Outcome)>, [usize; 2], Duration) {
+/// The case running now, for the memory watchdog.
+static CURRENT: AtomicU64 = AtomicU64::new(u64::MAX);
+
+/// Resident memory of this process, bytes (Linux; 0 elsewhere).
+fn resident_bytes() -> u64 {
+    let statm = std::fs::read_to_string("/proc/self/statm").unwrap_or_default();
+    statm.split_whitespace().nth(1).and_then(|p| p.parse::<u64>().ok()).unwrap_or(0) * 4096
+}
+
+/// A thread that ends the process, naming the case, once resident memory passes `limit` bytes: a
+/// case that grows without being refused would otherwise be killed by the kernel, seed unknown.
+fn watch_memory(limit: u64) {
+    std::thread::spawn(move || {
+        loop {
+            std::thread::sleep(Duration::from_millis(20));
+            let rss = resident_bytes();
+            if rss > limit {
+                eprintln!("case {} grew the process to {:.2} GB", CURRENT.load(Ordering::SeqCst), rss as f64 / 1e9);
+                std::process::exit(3);
+            }
+        }
+    });
+}
+
+/// Run `cases` seeds from `first`; the failures by seed, and the counts. With `log`, each case's seed
+/// and outcome are printed as it runs (a long run's progress, and the culprit if it dies).
+fn campaign(first: u64, cases: u64, log: bool) -> (Vec<(u64, Outcome)>, [usize; 2], Duration) {
     std::panic::set_hook(Box::new(|_| {})); // panics are counted, not printed
+    shellwarp::memory::limit_to(2_000_000_000);
+    watch_memory(MEMORY_LIMIT);
     let start = Instant::now();
     let mut bad = Vec::new();
     let mut counts = [0; 2];
     for seed in first..first + cases {
-        match guarded(seed, Duration::from_secs(30)) {
+        CURRENT.store(seed, Ordering::SeqCst);
+        let t = Instant::now();
+        let outcome = guarded(seed, Duration::from_secs(30));
+        if log {
+            let mut err = std::io::stderr().lock();
+            let _ = writeln!(
+                err,
+                "{seed} {outcome:?} {:.0} ms {:.0} MB",
+                t.elapsed().as_secs_f64() * 1e3,
+                resident_bytes() as f64 / 1e6
+            );
+        }
+        match outcome {
             Outcome::Ran => counts[0] += 1,
             Outcome::Refused => counts[1] += 1,
             other => bad.push((seed, other)),
@@ -206,9 +425,12 @@ fn campaign(first: u64, cases: u64) -> (Vec<(u64, Outcome)>, [usize; 2], Duratio
     (bad, counts, start.elapsed())
 }
 
+/// Resident memory past which a campaign stops and names its case: a third of this machine's 24 GB.
+const MEMORY_LIMIT: u64 = 8_000_000_000;
+
 #[test]
 fn mutated_scenes_end_in_a_clean_error_or_finite_steps() {
-    let (bad, [ran, refused], took) = campaign(0, 2000);
+    let (bad, [ran, refused], took) = campaign(0, 2000, false);
     eprintln!("2000 cases in {took:.1?}: {ran} ran, {refused} refused, {} bad", bad.len());
     assert!(bad.is_empty(), "{bad:?}");
     assert!(ran > 10 && refused > 10, "the mutations reach both outcomes ({ran} ran, {refused} refused)");
@@ -218,7 +440,8 @@ fn mutated_scenes_end_in_a_clean_error_or_finite_steps() {
 #[ignore]
 fn a_long_fuzz_run() {
     let cases = std::env::var("SHELLWARP_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(100_000);
-    let (bad, [ran, refused], took) = campaign(1_000_000, cases);
+    let first = std::env::var("SHELLWARP_FUZZ_FIRST").ok().and_then(|v| v.parse().ok()).unwrap_or(1_000_000);
+    let (bad, [ran, refused], took) = campaign(first, cases, true);
     eprintln!("{cases} cases in {took:.1?}: {ran} ran, {refused} refused, {} bad: {bad:?}", bad.len());
     assert!(bad.is_empty());
 }
@@ -229,6 +452,10 @@ fn a_long_fuzz_run() {
 fn replay_one_case() {
     let seed = std::env::var("SHELLWARP_FUZZ_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     let (name, text, overrides) = case(seed);
-    eprintln!("seed {seed}: {name} with {overrides:?}\n{text}");
+    match seed % 10 {
+        0..=6 => eprintln!("seed {seed}: {name} with {overrides:?}\n{text}"),
+        7 | 8 => eprintln!("seed {seed}: OBJ run by {}\n{}", obj_case(seed).1, obj_case(seed).0),
+        _ => eprintln!("seed {seed}: a damaged cache file"),
+    }
     eprintln!("{:?}", guarded(seed, Duration::from_secs(30)));
 }

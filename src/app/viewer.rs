@@ -415,7 +415,7 @@ impl Running {
         }
         if let (true, Some(path)) = (unattended, &options.state_out) {
             let state = viewer_state(&snapshot, &camera, self.viewport_rect());
-            std::fs::write(path, serde_json::to_string(&state)?)
+            crate::atomic::write(path, serde_json::to_string(&state)?.as_bytes())
                 .with_context(|| format!("writing {}", path.display()))?;
         }
         self.surface.present(texture);

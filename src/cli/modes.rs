@@ -141,7 +141,7 @@ fn export(
     let note = "shellwarp modal analysis: free DOFs of the anchored shell, x/y/z of each free vertex in turn";
     let write = |name: &str, text: String| {
         let path = dir.join(name);
-        std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
+        shellwarp::atomic::write(&path, text.as_bytes()).with_context(|| format!("writing {}", path.display()))
     };
     write("K.mtx", symmetric_text(sys.k.matrix(), &format!("{note}\nK: exact rest stiffness, N/m")))?;
     write("M.mtx", diagonal_text(&sys.mass, &format!("{note}\nM: lumped mass, kg")))?;

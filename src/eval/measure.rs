@@ -129,11 +129,12 @@ pub fn walked_reference(setup: &Setup, steps: usize) -> Result<(Vec<DVec3>, bool
     if let Some(file) = file {
         let text =
             serde_json::to_string(&(x.iter().map(|p| p.to_array()).collect::<Vec<_>>(), converged)).unwrap_or_default();
-        let tmp = file.with_extension(format!("json.{}.tmp", std::process::id()));
-        let written = file.parent().map(std::fs::create_dir_all).transpose().and_then(|_| std::fs::write(&tmp, text));
-        if written.is_ok() {
-            let _ = std::fs::rename(&tmp, &file);
-        }
+        // Best effort: a reference that cannot be kept is computed again next time.
+        let _ = file
+            .parent()
+            .map(std::fs::create_dir_all)
+            .transpose()
+            .and_then(|_| crate::atomic::write(&file, text.as_bytes()));
     }
     Ok((x, converged))
 }

@@ -118,14 +118,11 @@ pub fn find(name: &str) -> Result<&'static dyn Experiment, EvalError> {
     })
 }
 
-/// Write `bytes` to `path` through a temporary file in the same directory, renamed into place.
+/// Write `bytes` to `path` atomically ([`crate::atomic`]), creating its folder.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), EvalError> {
     let io = |e: std::io::Error| EvalError::Io { path: path.to_path_buf(), reason: e.to_string() };
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(io)?;
     }
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-    std::fs::write(&tmp, bytes).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)
+    crate::atomic::write(path, bytes).map_err(io)
 }

@@ -19,6 +19,9 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{DMatrix, SymmetricEigen};
 
+/// Restarts over which the convergence rate is measured to project the restarts still needed.
+const RATE_WINDOW: usize = 10;
+
 /// Settings of [`lowest_modes`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LanczosOptions {
@@ -30,7 +33,7 @@ pub struct LanczosOptions {
     /// has converged: the iteration goes on while a pair is above it and still improving (by at
     /// least half per block solve).
     pub target: f64,
-    /// Cap on restarts before giving up.
+    /// Cap on restarts before giving up (earlier when the rate of the last restarts projects past twice the cap).
     pub max_restarts: usize,
     /// Vectors per block (per call of the solve).
     pub block: usize,
@@ -223,6 +226,8 @@ pub fn lowest_modes(
     let mut previous = vec![f64::INFINITY; count];
     // Columns `0..filled` hold the basis; the last block `filled - width..filled` still needs `Op`.
     let (mut filled, mut width) = (first, first);
+    // The worst relative Ritz residual of the wanted pairs at each restart.
+    let mut worst_at = Vec::new();
     for restart in 0..=options.max_restarts {
         loop {
             let j0 = filled - width;
@@ -284,7 +289,17 @@ pub fn lowest_modes(
                 previous = residuals;
             }
             if next == 0 {
-                if restart == options.max_restarts {
+                // The worst wanted residual falls about geometrically between restarts: where the rate
+                // of the last `RATE_WINDOW` restarts projects the tolerance past twice the cap (a
+                // stiffness ratio of 1e10 makes it crawl), give up now rather than at the cap.
+                let worst = order[..wanted].iter().map(|&i| residual(i) / eig.eigenvalues[i].abs()).fold(0.0, f64::max);
+                worst_at.push(worst);
+                let hopeless = restart >= RATE_WINDOW && worst > 0.0 && {
+                    let rate = (worst / worst_at[restart - RATE_WINDOW]).powf(1.0 / RATE_WINDOW as f64);
+                    let needed = (options.tolerance / worst).ln() / rate.ln();
+                    !(rate < 1.0 && restart as f64 + needed <= 2.0 * options.max_restarts as f64)
+                };
+                if restart == options.max_restarts || hopeless {
                     return Err(LanczosError::NoConvergence { converged, wanted: count, restarts: restart });
                 }
                 // Thick restart: the best `keep` Ritz vectors, then the residual block. Their mutual

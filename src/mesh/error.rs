@@ -76,14 +76,17 @@ pub enum MeshError {
         /// Index of the vertex.
         vertex: usize,
     },
-    /// A generator was given parameters that cannot make a mesh.
-    #[error("invalid generator parameter `{name}`: {reason}")]
+    /// A generator or a placement was given parameters that cannot make a mesh.
+    #[error("invalid mesh parameter `{name}`: {reason}")]
     BadParameter {
         /// The parameter's name.
         name: &'static str,
         /// Why it was refused.
         reason: String,
     },
+    /// A mesh that would need more memory than the machine has.
+    #[error(transparent)]
+    TooLarge(#[from] crate::memory::TooLarge),
     /// Reading or writing a mesh file failed.
     #[error("{path}: {reason}")]
     Io {

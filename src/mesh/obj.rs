@@ -3,13 +3,18 @@
 
 mod parse;
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::io::Write;
+use std::path::Path;
 
 use glam::DVec3;
 
+use super::generate::MAX_VERTICES;
 use super::{MeshError, TriMesh};
+
+/// Memory reading an OBJ file takes per byte of it, at most: the bytes, their text, a string per
+/// statement (a `v 0 0 0` line of 8 bytes becomes a 56-byte string and a 32-byte slot), and the
+/// parsed positions and faces.
+const BYTES_PER_FILE_BYTE: u64 = 16;
 
 /// Read a triangle mesh from an OBJ file.
 ///
@@ -19,25 +24,30 @@ use super::{MeshError, TriMesh};
 /// normals, points, lines and materials are ignored. Coordinates are read as `f64`, so values
 /// written by [`save_obj`] come back bit for bit.
 ///
-/// Errors: [`MeshError::Io`] naming the path ("file not found", "cannot read: ...", or
+/// Errors: [`MeshError::TooLarge`] for a file that would need more memory to read than the machine
+/// has, [`MeshError::Io`] naming the path ("file not found", "cannot read: ...", or
 /// "line N: ..." for malformed statements); otherwise whatever [`TriMesh::new`] reports for invalid
 /// geometry, e.g. [`MeshError::UnreferencedVertex`] for a `v` no face uses.
 pub fn load_obj(path: &Path) -> Result<TriMesh, MeshError> {
     let io = |reason: String| MeshError::Io { path: path.to_path_buf(), reason };
-    let bytes = std::fs::read(path).map_err(|e| match e.kind() {
+    let not_read = |e: std::io::Error| match e.kind() {
         std::io::ErrorKind::NotFound => io("file not found".into()),
         _ => io(format!("cannot read: {e}")),
-    })?;
+    };
+    let size = std::fs::metadata(path).map_err(not_read)?.len();
+    crate::memory::check(crate::memory::times(size, BYTES_PER_FILE_BYTE), || format!("reading {}", path.display()))?;
+    let bytes = std::fs::read(path).map_err(not_read)?;
     let (positions, triangles) = parse::parse(&String::from_utf8_lossy(&bytes)).map_err(io)?;
+    if positions.len() > MAX_VERTICES {
+        return Err(io(format!("{} vertices: more than the {MAX_VERTICES} a mesh may have", positions.len())));
+    }
     TriMesh::new(positions, triangles)
 }
 
 /// Write `positions` and `triangles` as an OBJ file (`v x y z` lines, then 1-based `f a b c` lines).
 ///
 /// Coordinates are printed with Rust's shortest round-trip `f64` formatting, so reading them back is
-/// exact. The write is atomic: the data goes to a hidden temporary file in the same directory
-/// (`.<name>.tmp-<pid>`), is flushed and synced, then renamed over `path`; on failure the temporary
-/// file is removed and `path` is untouched.
+/// exact. The write is atomic ([`crate::atomic`]): on failure `path` is untouched.
 ///
 /// Errors: [`MeshError::NonFinite`] or [`MeshError::IndexOutOfRange`] for data that would make a
 /// broken file (checked before touching the disk); [`MeshError::Io`] naming the path otherwise.
@@ -50,41 +60,24 @@ pub fn save_obj(path: &Path, positions: &[DVec3], triangles: &[[usize; 3]]) -> R
             return Err(MeshError::IndexOutOfRange { triangle, index, vertex_count: positions.len() });
         }
     }
-    let io = |reason: String| MeshError::Io { path: path.to_path_buf(), reason };
-    let name = path.file_name().ok_or_else(|| io("not a file path".into()))?;
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let tmp = dir.join(format!(".{}.tmp-{}", name.to_string_lossy(), std::process::id()));
-    let result = write_and_sync(&tmp, positions, triangles)
-        .and_then(|()| std::fs::rename(&tmp, path))
-        .map_err(|e| io(format!("cannot write: {e}")));
-    if result.is_err() {
-        // Best effort: the temporary may not exist if creating it was what failed.
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
-}
-
-fn write_and_sync(tmp: &Path, positions: &[DVec3], triangles: &[[usize; 3]]) -> std::io::Result<()> {
-    let file = File::create(tmp)?;
-    let mut w = BufWriter::new(file);
-    writeln!(w, "# shellwarp: {} vertices, {} triangles", positions.len(), triangles.len())?;
-    for p in positions {
-        writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
-    }
-    for t in triangles {
-        writeln!(w, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
-    }
-    let file = w.into_inner().map_err(|e| e.into_error())?;
-    file.sync_all()
+    crate::atomic::write_with(path, |w| {
+        writeln!(w, "# shellwarp: {} vertices, {} triangles", positions.len(), triangles.len())?;
+        for p in positions {
+            writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+        }
+        for t in triangles {
+            writeln!(w, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+        }
+        Ok(())
+    })
+    .map_err(|e| MeshError::Io { path: path.to_path_buf(), reason: format!("cannot write: {e}") })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::mesh::generate::{creature, delaunay_sheet};
+    use std::path::PathBuf;
 
     /// A fresh, empty directory for one test.
     fn scratch(name: &str) -> PathBuf {

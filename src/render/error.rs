@@ -30,6 +30,9 @@ pub enum RenderError {
         reason: String,
     },
     /// A camera cannot be fitted to the given box (non-finite or inverted box, bad margin or field of
+    /// A render target that would need more memory than the machine has.
+    #[error(transparent)]
+    TooLarge(#[from] crate::memory::TooLarge),
     /// view, or a viewing direction along the up vector).
     #[error("cannot fit the camera: {0}")]
     BadCamera(String),

@@ -221,23 +221,13 @@ impl Headless {
     }
 }
 
-/// Write `image` as a PNG at `path` atomically: into a temporary file in the same directory, then renamed,
-/// so readers never see a half-written file.
+/// Write `image` as a PNG at `path` atomically ([`crate::atomic`]): readers never see a half-written file.
 pub fn save_png(image: &RgbaImage, path: impl AsRef<Path>) -> Result<(), RenderError> {
     let path = path.as_ref();
     let io = |reason: String| RenderError::Io { path: path.to_path_buf(), reason };
-    let name = path.file_name().ok_or_else(|| io("not a file path".into()))?;
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let tmp = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
-    let written = image
-        .save_with_format(&tmp, image::ImageFormat::Png)
-        .map_err(|e| io(format!("cannot write PNG: {e}")))
-        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| io(format!("cannot move the PNG into place: {e}"))));
-    if written.is_err() {
-        // Best effort: the error we return matters more than a leftover temporary file.
-        let _ = std::fs::remove_file(&tmp);
-    }
-    written
+    let mut png = std::io::Cursor::new(Vec::new());
+    image.write_to(&mut png, image::ImageFormat::Png).map_err(|e| io(format!("cannot encode PNG: {e}")))?;
+    crate::atomic::write(path, png.get_ref()).map_err(|e| io(format!("cannot write PNG: {e}")))
 }
 
 /// Read a PNG (or any format the `image` crate was built with) as 8-bit RGBA.

@@ -162,6 +162,7 @@ fn place(mesh: &TriMesh, p: &Placement) -> Result<TriMesh, MeshError> {
         return mesh.with_positions(placed);
     }
     let n = placed.len();
+    crate::mesh::generate::vertex_budget("placement.copies", n.checked_mul(p.copies))?;
     let shift = DVec3::from(p.copy_offset);
     let positions = (0..p.copies).flat_map(|k| placed.iter().map(move |&x| x + shift * k as f64)).collect();
     let triangles = (0..p.copies).flat_map(|k| mesh.triangles().iter().map(move |t| t.map(|i| i + k * n))).collect();

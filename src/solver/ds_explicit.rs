@@ -15,7 +15,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::registry::Method;
+use super::registry::{Footprint, Method};
 use super::shell_model::SHELL_PARAMS;
 use super::stability::{StabilityLimit, stability_limit};
 use super::{DragSet, ParamSpec, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
@@ -27,6 +27,7 @@ pub const METHOD: Method = Method {
     summary: "discrete shell reference: symplectic Euler at 1/30000 s or finer (automatic stable substep); \
               no collisions",
     build: |setup| Ok(Box::new(DsExplicit::new(setup)?)),
+    footprint: Footprint::FACTORED,
 };
 
 /// The paper's substep, s.

@@ -7,7 +7,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::newton::{Inertia, NewtonSettings};
-use super::registry::Method;
+use super::registry::{Footprint, Method};
 use super::shell_model::SHELL_PARAMS;
 use super::{DragSet, ParamSpec, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
 use crate::scene::Setup;
@@ -17,6 +17,7 @@ pub const METHOD: Method = Method {
     name: "ds-implicit",
     summary: "discrete shell, backward Euler with Newton iterations (sparse Cholesky), stable at 1/30 s; no collisions",
     build: |setup| Ok(Box::new(DsImplicit::new(setup)?)),
+    footprint: Footprint::FACTORED,
 };
 
 /// `step`, `iterations`, `tolerance`.

@@ -26,7 +26,7 @@ use glam::DVec3;
 
 use super::ds_implicit::NEWTON_PARAMS;
 use super::newton::{NewtonReport, NewtonSettings};
-use super::registry::Method;
+use super::registry::{Footprint, Method};
 use super::shell_model::SHELL_PARAMS;
 use super::{DragSet, ParamSpec, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
 use crate::scene::Setup;
@@ -37,6 +37,7 @@ pub const METHOD: Method = Method {
     summary: "discrete shell static equilibrium: Newton with line search on W − f_extᵀu, adaptive load \
               stepping; no collisions",
     build: |setup| Ok(Box::new(DsStatic::new(setup)?)),
+    footprint: Footprint::FACTORED,
 };
 
 /// Newton iterations one stage of the load path may take before its increment is judged too large.

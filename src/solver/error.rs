@@ -52,6 +52,9 @@ pub enum SolverError {
         /// What was detected.
         reason: String,
     },
+    /// Work that would need more memory than the machine has, refused before it starts.
+    #[error(transparent)]
+    TooLarge(#[from] crate::memory::TooLarge),
     /// A numerical routine failed (factorisation, eigen solve...).
     #[error("numerical failure: {0}")]
     Numerical(String),

@@ -103,7 +103,7 @@ pub fn split(setup: &Setup) -> Result<Vec<Piece>, SolverError> {
 fn build(piece: &Setup) -> Result<(Box<dyn Solver>, Vec<String>), SolverError> {
     match piece.scene.solver.accuracy {
         Some(_) => auto::build(piece),
-        None => Ok(((find(&piece.scene.solver.method)?.build)(piece)?, Vec::new())),
+        None => Ok((find(&piece.scene.solver.method)?.construct(piece)?, Vec::new())),
     }
 }
 

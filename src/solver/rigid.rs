@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::registry::Method;
+use super::registry::{Footprint, Method};
 use super::{DragKind, DragSet, ParamSpec, ParamValue, Solver, SolverError, StepStats};
 use crate::scene::Setup;
 
@@ -14,6 +14,7 @@ pub const METHOD: Method = Method {
     name: "rigid",
     summary: "no deformation: the mesh translates rigidly to follow the first position drag",
     build: |setup| Ok(Box::new(Rigid::new(setup)?)),
+    footprint: Footprint::PARTICLES,
 };
 
 const PARAMS: [ParamSpec; 1] = [ParamSpec {

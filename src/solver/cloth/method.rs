@@ -12,7 +12,7 @@ use crate::collision::Body;
 use crate::linalg::filtered_pcg::{self, Constraint, PcgReport, Stop};
 use crate::linalg::padded::PaddedMat3;
 use crate::scene::{MeshSource, Setup};
-use crate::solver::registry::Method;
+use crate::solver::registry::{Footprint, Method};
 use crate::solver::wind::{self, Wind};
 use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Solver, SolverError, StepStats, check_finite};
 
@@ -21,6 +21,7 @@ pub const CLOTH: Method = Method {
     name: "cloth",
     summary: "implicit particle cloth on triangle meshes: stretch + buckling springs, valence weights, filtered PCG, contact with friction",
     build: |setup| Ok(Box::new(Cloth::new(setup, Variant::Triangles)?)),
+    footprint: Footprint::PARTICLES,
 };
 
 /// Registry entry of Choi & Ko's original on a regular quad grid.
@@ -28,6 +29,7 @@ pub const CLOTH_QUAD: Method = Method {
     name: "cloth-quad",
     summary: "Choi & Ko's particle cloth on a regular grid (first and second neighbours); needs a `grid` mesh",
     build: |setup| Ok(Box::new(Cloth::new(setup, Variant::Quads)?)),
+    footprint: Footprint::PARTICLES,
 };
 
 /// Which neighbour structure.

@@ -5,7 +5,6 @@
 //! else `~/.cache/shellwarp`. Files are written atomically (temporary file, then rename); an
 //! unreadable or mismatched file is ignored and recomputed, never trusted.
 
-use std::io::Write;
 use std::path::PathBuf;
 
 use glam::DVec3;
@@ -88,16 +87,8 @@ impl Cache {
         let Some(path) = self.path(p) else { return };
         let bytes = encode(p, a);
         let write = || -> std::io::Result<()> {
-            let parent = path.parent().ok_or(std::io::ErrorKind::NotFound)?;
-            std::fs::create_dir_all(parent)?;
-            // Unique per process and per store within it (threads of one evaluation share a process).
-            static STORES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-            let n = STORES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            let tmp = parent.join(format!(".{:016x}.{}.{n}.tmp", key(p), std::process::id()));
-            let mut f = std::fs::File::create(&tmp)?;
-            f.write_all(&bytes)?;
-            f.sync_all()?;
-            std::fs::rename(&tmp, &path)
+            std::fs::create_dir_all(path.parent().ok_or(std::io::ErrorKind::NotFound)?)?;
+            crate::atomic::write(&path, &bytes)
         };
         let _ = write();
     }

@@ -24,7 +24,7 @@ use super::supersede::{Generation, unless_superseded};
 use crate::energy::ShellStiffness;
 use crate::mesh::TriMesh;
 use crate::scene::Setup;
-use crate::solver::registry::Method;
+use crate::solver::registry::{Footprint, Method};
 use crate::solver::wind::{self, Wind};
 use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
 
@@ -33,6 +33,7 @@ pub const LMA: Method = Method {
     name: "lma",
     summary: "linear modal analysis: x = X + Φq, fast, but large rotations inflate the shell",
     build: |setup| Ok(Box::new(ModalSolver::new(setup, Variant::Lma)?)),
+    footprint: Footprint::MODAL,
 };
 
 /// Registry entry: modal warping for thin shells.
@@ -40,6 +41,7 @@ pub const MWTS: Method = Method {
     name: "mwts",
     summary: "modal warping for thin shells: modal rotations warp the linear modes (1/30 s steps)",
     build: |setup| Ok(Box::new(ModalSolver::new(setup, Variant::Mwts)?)),
+    footprint: Footprint::MODAL,
 };
 
 /// Registry entry: modal warping's modes with the rotation-strain reconstruction.
@@ -48,6 +50,7 @@ pub const MWTS_RS: Method = Method {
     summary: "mwts's modes, positions solved globally from triangle rotations and strains, consistent forces: \
               accurate far into large bends (1/30 s steps)",
     build: |setup| Ok(Box::new(ModalSolver::new(setup, Variant::MwtsRs)?)),
+    footprint: Footprint::MODAL,
 };
 
 /// Which modal method.

@@ -56,7 +56,7 @@ use self::self_collision::SelfCollision;
 use crate::collision::Shape;
 use crate::energy::constraints;
 use crate::scene::Setup;
-use crate::solver::registry::Method;
+use crate::solver::registry::{Footprint, Method};
 use crate::solver::wind::Wind;
 use crate::solver::{DragKind, DragSet, ParamValue, Solver, SolverError, StepStats, check_finite};
 
@@ -65,6 +65,7 @@ pub const PBD: Method = Method {
     name: "pbd",
     summary: "position-based cloth (Müller et al. 2007): stretch, dihedral bending, k ∈ [0, 1] per iteration, contacts, self-collision, balloons, dynamic bodies",
     build: |setup| Ok(Box::new(Pbd::new(setup, Variant::Pbd)?)),
+    footprint: Footprint::PARTICLES,
 };
 
 /// Registry entry of extended position-based dynamics.
@@ -72,6 +73,7 @@ pub const XPBD: Method = Method {
     name: "xpbd",
     summary: "extended position-based cloth (Macklin et al. 2016, 2019): compliance instead of stiffness, small substeps; contacts, self-collision, balloons, dynamic bodies",
     build: |setup| Ok(Box::new(Pbd::new(setup, Variant::Xpbd)?)),
+    footprint: Footprint::PARTICLES,
 };
 
 /// Which projection.
