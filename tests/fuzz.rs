@@ -436,6 +436,20 @@ fn mutated_scenes_end_in_a_clean_error_or_finite_steps() {
     assert!(ran > 10 && refused > 10, "the mutations reach both outcomes ({ran} ran, {refused} refused)");
 }
 
+/// The cases the long runs caught, each now refused up front: a creature generated at ten times its
+/// frequency (1.3 million vertices, grew the process past 8 GB), a creature a 1e9 bending stiffness
+/// makes impossible to analyse (its eigen solve crawled for 50 s before failing), and a pile whose
+/// strip starts half in the ground (6 s a step, crumpled).
+#[test]
+fn the_cases_the_long_runs_caught_are_refused_in_time() {
+    shellwarp::memory::limit_to(2_000_000_000);
+    for seed in [1_070_544, 1_004_464, 1_050_834] {
+        let start = Instant::now();
+        assert_eq!(guarded(seed, Duration::from_secs(30)), Outcome::Refused, "case {seed}");
+        assert!(start.elapsed() < Duration::from_secs(15), "case {seed} took {:.1?}", start.elapsed());
+    }
+}
+
 #[test]
 #[ignore]
 fn a_long_fuzz_run() {

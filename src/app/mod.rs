@@ -9,5 +9,6 @@ pub mod panel;
 pub mod readout;
 pub mod scene_view;
 pub mod sim_thread;
+pub mod soak;
 pub mod surface;
 pub mod viewer;

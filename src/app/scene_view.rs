@@ -77,6 +77,9 @@ pub struct SceneView {
     marker_size: f32,
     rig: Rig,
     edges: Vec<[usize; 2]>,
+    /// The mesh at rest: drawn instead of positions of another mesh (the old scene's last snapshot
+    /// in the frames between a scene switch and the new solver's first).
+    rest: Vec<DVec3>,
 }
 
 /// A position as the renderer's `[f32; 3]`.
@@ -139,6 +142,7 @@ impl SceneView {
             marker_size: (0.012 * size) as f32,
             rig: Rig::new(&setup.scene.skeleton),
             edges: setup.mesh.topology().edges.iter().map(|e| e.v).collect(),
+            rest: setup.mesh.positions().to_vec(),
         }
     }
 
@@ -174,6 +178,7 @@ impl SceneView {
         options: ViewOptions,
         poses: &[(DVec3, DQuat)],
     ) -> Frame {
+        let positions = if positions.len() == self.rest.len() { positions } else { &self.rest[..] };
         let mut frame = Frame::new(camera);
         let spacing = nice_spacing(self.grid_extent / 10.0);
         frame.ground_grid(self.grid_height, self.grid_extent, spacing, GRID);
@@ -276,4 +281,24 @@ fn triangles_u32(t: &[[usize; 3]]) -> Vec<[u32; 3]> {
 fn nice_spacing(x: f32) -> f32 {
     let p = 10f32.powf(x.log10().floor());
     [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * p).min_by(|a, b| (a - x).abs().total_cmp(&(b - x).abs())).unwrap_or(p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Between a scene switch and the new solver's first snapshot the window holds the new scene's
+    /// view and the old scene's positions: the view draws its own mesh at rest (the soak found this
+    /// panicking on an anchor index).
+    #[test]
+    fn positions_of_another_mesh_draw_this_mesh_at_rest() {
+        let cantilever = crate::scene::load("cantilever", &[]).unwrap();
+        let creature = crate::scene::load("creature", &[]).unwrap();
+        let view = SceneView::new(&creature);
+        let options = ViewOptions { wireframe: false };
+        let frame = view.frame_with_bodies(view.camera(), cantilever.mesh.positions(), 0.0, &[], options, &[]);
+        let shell = frame.meshes.iter().find(|m| m.positions.len() == creature.mesh.vertex_count()).unwrap();
+        assert_eq!(shell.positions[7], f32x3(creature.mesh.positions()[7]));
+        assert!(frame.meshes.iter().all(|m| m.triangles.iter().flatten().all(|&i| (i as usize) < m.positions.len())));
+    }
 }

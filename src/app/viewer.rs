@@ -21,6 +21,7 @@ use super::orbit::Orbit;
 use super::panel::{self, PanelState, UiAction};
 use super::scene_view::{SceneView, ViewOptions};
 use super::sim_thread::{Command, Pacing, SimHandle, SimStatus, Snapshot};
+use super::soak::{Poke, Soak, SoakOptions};
 use super::surface::{PanelPaint, WindowSurface};
 use crate::render::Camera;
 use crate::scene::{self, Setup};
@@ -47,6 +48,8 @@ pub struct ViewerOptions {
     pub state_out: Option<PathBuf>,
     /// Run a reference ghost with this method (refused if it cannot keep real time).
     pub ghost: Option<String>,
+    /// Drive the window with a random script for a while, write its report, and exit.
+    pub soak: Option<SoakOptions>,
 }
 
 /// The simulation state written by `state_out`: what the screenshot shows, as numbers, and how it
@@ -123,6 +126,8 @@ struct Running {
     screenshot: bool,
     /// Width of the side panel in points (the 3D view is the rest of the window).
     panel_width: f32,
+    /// The soak driving the window, if any.
+    soak: Option<Soak>,
 }
 
 impl ApplicationHandler for App {
@@ -213,6 +218,7 @@ impl Running {
             last_frame: Instant::now(),
             screenshot: false,
             panel_width: 0.0,
+            soak: options.soak.clone().map(Soak::new),
         })
     }
 
@@ -388,6 +394,9 @@ impl Running {
         self.panel.fps = if dt > 0.0 { 0.9 * self.panel.fps + 0.1 / dt } else { self.panel.fps };
         self.finish_switch();
         let snapshot = self.sim.latest().clone();
+        if let Some(report) = self.soak(&snapshot, dt * 1e3)? {
+            return Ok(report);
+        }
         // The panel first, so its actions apply before the scene is drawn.
         let paint = self.panel(&snapshot);
         let camera = self.orbit.camera();
@@ -420,6 +429,27 @@ impl Running {
         }
         self.surface.present(texture);
         Ok(unattended)
+    }
+}
+
+impl Running {
+    /// Let the soak act on this frame; `Some(true)` once it is over and its report written.
+    fn soak(&mut self, snapshot: &Snapshot, frame_ms: f64) -> anyhow::Result<Option<bool>> {
+        let Some(soak) = self.soak.as_mut() else { return Ok(None) };
+        if soak.finished() {
+            let path = soak.report_path().to_path_buf();
+            let report = soak.report();
+            crate::atomic::write(&path, serde_json::to_string_pretty(&report)?.as_bytes())
+                .with_context(|| format!("writing {}", path.display()))?;
+            return Ok(Some(true));
+        }
+        for poke in soak.tick(snapshot, frame_ms) {
+            match poke {
+                Poke::Ui(action) => self.apply(action),
+                Poke::Sim(command) => self.sim.send(command),
+            }
+        }
+        Ok(None)
     }
 }
 

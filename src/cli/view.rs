@@ -4,6 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use glam::DVec3;
+use shellwarp::app::soak::SoakOptions;
 use shellwarp::app::viewer::{self, ViewerOptions};
 use shellwarp::solver::{Drag, DragKind};
 
@@ -49,6 +50,19 @@ pub struct ViewArgs {
     /// the live relative error in the panel (refused if it cannot keep real time).
     #[arg(long, value_name = "METHOD")]
     ghost: Option<String>,
+    /// Drive the window for this many seconds with a random script (drags, twists, parameter edits
+    /// in and out of range, method and scene switches, resets), write a report and exit.
+    #[arg(long, value_name = "SECONDS")]
+    soak: Option<f64>,
+    /// Where --soak writes its report (JSON).
+    #[arg(long, value_name = "FILE", default_value = "soak-report.json")]
+    soak_report: PathBuf,
+    /// With --soak: switch only among these methods (comma-separated), and not between scenes.
+    #[arg(long, value_name = "METHODS", value_delimiter = ',')]
+    soak_methods: Vec<String>,
+    /// With --soak: the script's seed.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    soak_seed: u64,
 }
 
 impl Default for ViewArgs {
@@ -84,7 +98,17 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
             .collect(),
         state_out: args.state_out.clone(),
         ghost: args.ghost.clone(),
+        soak: args.soak.map(|seconds| SoakOptions {
+            seconds,
+            report: args.soak_report.clone(),
+            methods: args.soak_methods.clone(),
+            scenes: shellwarp::scene::builtin_names().into_iter().map(String::from).collect(),
+            seed: args.soak_seed,
+        }),
     };
+    for m in &args.soak_methods {
+        shellwarp::solver::registry::find(m)?;
+    }
     if let Some(g) = &args.ghost {
         shellwarp::solver::registry::find(g)?;
     }

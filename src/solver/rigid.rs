@@ -1,5 +1,10 @@
 //! `rigid`: the cheapest model — the mesh keeps its rest shape and translates to follow the first
 //! position drag. For static props and for driving the pipeline without physics.
+//!
+//! `faulty` is the same follower with a `fault` parameter: set to 1, its next step panics (as an
+//! index out of bounds in a real solver would). It exists to test that a panicking solver is caught,
+//! reported and recovered from by the simulation thread and the window, and is offered only when
+//! `SHELLWARP_TEST_METHODS` is set ([`super::registry::TEST_METHODS`]).
 
 use std::time::Instant;
 
@@ -13,8 +18,27 @@ use crate::scene::Setup;
 pub const METHOD: Method = Method {
     name: "rigid",
     summary: "no deformation: the mesh translates rigidly to follow the first position drag",
-    build: |setup| Ok(Box::new(Rigid::new(setup)?)),
+    build: |setup| Ok(Box::new(Rigid::new(setup, false)?)),
     footprint: Footprint::PARTICLES,
+};
+
+/// Registry entry of the test method that panics on command.
+pub const FAULTY: Method = Method {
+    name: "faulty",
+    summary: "test method: the rigid follower, whose next step panics once `fault` is set to 1",
+    build: |setup| Ok(Box::new(Rigid::new(setup, true)?)),
+    footprint: Footprint::PARTICLES,
+};
+
+const FAULT: ParamSpec = ParamSpec {
+    name: "fault",
+    label: "fault",
+    unit: "",
+    help: "1: the next step panics (a test of the simulation thread's recovery).",
+    min: 0.0,
+    max: 1.0,
+    log_scale: false,
+    integer: true,
 };
 
 const PARAMS: [ParamSpec; 1] = [ParamSpec {
@@ -35,19 +59,22 @@ struct Rigid {
     drags: DragSet,
     step: f64,
     steps: u64,
+    /// `Some(armed)` for `faulty`: whether the next step panics.
+    fault: Option<bool>,
 }
 
 impl Rigid {
-    fn new(setup: &Setup) -> Result<Self, SolverError> {
+    fn new(setup: &Setup, faulty: bool) -> Result<Self, SolverError> {
         let step = PARAMS[0].check(setup.scene.solver.step.unwrap_or(1.0 / 30.0))?;
         let rest = setup.mesh.positions().to_vec();
-        Ok(Self { positions: rest.clone(), drags: DragSet::new(rest.len(), false), rest, step, steps: 0 })
+        let fault = faulty.then_some(false);
+        Ok(Self { positions: rest.clone(), drags: DragSet::new(rest.len(), false), rest, step, steps: 0, fault })
     }
 }
 
 impl Solver for Rigid {
     fn method(&self) -> &'static str {
-        METHOD.name
+        if self.fault.is_some() { FAULTY.name } else { METHOD.name }
     }
 
     fn time_step(&self) -> f64 {
@@ -56,6 +83,10 @@ impl Solver for Rigid {
 
     fn step(&mut self) -> Result<StepStats, SolverError> {
         let start = Instant::now();
+        if self.fault == Some(true) {
+            self.fault = Some(false);
+            panic!("index out of bounds: the faulty test method's fault was set (step {})", self.steps + 1);
+        }
         let offset = self
             .drags
             .iter()
@@ -83,11 +114,19 @@ impl Solver for Rigid {
     }
 
     fn params(&self) -> Vec<ParamValue> {
-        vec![ParamValue { spec: PARAMS[0], value: self.step }]
+        let step = ParamValue { spec: PARAMS[0], value: self.step };
+        match self.fault {
+            Some(armed) => vec![step, ParamValue { spec: FAULT, value: f64::from(u8::from(armed)) }],
+            None => vec![step],
+        }
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
-        self.step = ParamSpec::find(METHOD.name, &PARAMS, name)?.check(value)?;
+        match self.fault {
+            Some(_) if name == FAULT.name => self.fault = Some(FAULT.check(value)? == 1.0),
+            Some(_) => self.step = ParamSpec::find(FAULTY.name, &[PARAMS[0], FAULT], name)?.check(value)?,
+            None => self.step = ParamSpec::find(METHOD.name, &PARAMS, name)?.check(value)?,
+        }
         Ok(())
     }
 
@@ -122,5 +161,18 @@ mod tests {
         assert!(s.set_param("nope", 1.0).is_err());
         s.set_param("step", 0.01).unwrap();
         assert_eq!(s.time_step(), 0.01);
+    }
+
+    #[test]
+    fn the_faulty_method_panics_once_on_command() {
+        let setup = crate::scene::load("cantilever", &[]).unwrap();
+        let mut s = (FAULTY.build)(&setup).unwrap();
+        s.step().unwrap();
+        assert!(s.set_param("fault", 2.0).is_err());
+        s.set_param("fault", 1.0).unwrap();
+        let panic = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| s.step())).unwrap_err();
+        assert!(panic.downcast_ref::<String>().is_some_and(|m| m.contains("fault was set (step 2)")));
+        s.step().unwrap(); // once
+        assert!((METHOD.build)(&setup).unwrap().set_param("fault", 1.0).is_err(), "rigid has no fault");
     }
 }

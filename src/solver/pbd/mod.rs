@@ -60,6 +60,26 @@ use crate::solver::registry::{Footprint, Method};
 use crate::solver::wind::Wind;
 use crate::solver::{DragKind, DragSet, ParamValue, Solver, SolverError, StepStats, check_finite};
 
+/// Refuse a cloth that starts deep inside a collider that stands still (deeper than a tenth
+/// of its size): its projection out would launch it at metres per step, crumple it onto itself and
+/// make every self-collision query meet every particle (a mutated pile scene with its strip half in
+/// the ground took 6 s a step).
+fn starts_outside(setup: &Setup, size: f64) -> Result<(), String> {
+    let anchored: std::collections::HashSet<usize> = setup.anchors.iter().copied().collect();
+    for (i, body) in setup.bodies.iter().enumerate().filter(|(_, b)| b.mass.is_none() && !b.is_moving()) {
+        let free = setup.mesh.positions().iter().enumerate().filter(|(v, _)| !anchored.contains(v));
+        let deepest = free.map(|(v, &x)| (v, body.contact(x, 0.0).distance)).min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((v, d)) = deepest.filter(|&(_, d)| d < -0.1 * size) {
+            return Err(format!(
+                "vertex {v} starts {:.3} m inside colliders[{i}] (more than a tenth of the cloth's size): \
+                 move the cloth out (placement.translate)",
+                -d
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Registry entry of position-based dynamics.
 pub const PBD: Method = Method {
     name: "pbd",
@@ -163,6 +183,7 @@ impl Pbd {
             let (lo, hi) = setup.mesh.bounding_box();
             (hi - lo).length().max(1e-3)
         };
+        starts_outside(setup, size).map_err(|reason| SolverError::Unsuitable { method, reason })?;
         let double_areas: Vec<f64> =
             model.triangles.iter().map(|t| 2.0 * crate::mesh::area_of(&model.rest, t)).collect();
         let total_mass: f64 =

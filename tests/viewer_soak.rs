@@ -1,0 +1,82 @@
+//! The real window under Xvfb driven by a random script (`view --soak`): drags and twists added and
+//! moved, parameters edited in and out of range, methods and scenes switched, resets — and a solver
+//! that panics on command. The window must survive all of it (exit cleanly), never draw a non-finite
+//! position, show every panic with its message and recover from it (by *Reset* or a method switch).
+//! The 30-second soak and the panicking solver are in the suite; the 10-minute soak, which also
+//! checks that resident memory stays flat after its first minute, is
+//! `cargo test --release --test viewer_soak -- --ignored`.
+
+use std::process::Command;
+
+use shellwarp::app::soak::SoakReport;
+
+/// Run the viewer for `seconds` with the soak's extra arguments; its report.
+fn soak(name: &str, seconds: u32, extra: &[&str]) -> SoakReport {
+    let dir = tempfile::Builder::new().prefix(&format!("shellwarp-soak-{name}-")).tempdir().unwrap();
+    let report = dir.path().join("report.json");
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1024x640x24"])
+        .arg(env!("CARGO_BIN_EXE_shellwarp"))
+        .args(["view", "--size", "800x480", "--soak", &seconds.to_string(), "--soak-report"])
+        .arg(&report)
+        .args(extra)
+        .env("SHELLWARP_TEST_METHODS", "1")
+        .env("SHELLWARP_CACHE_DIR", dir.path().join("cache"))
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .expect("xvfb-run is installed (apt-get install xvfb xauth)");
+    assert!(out.status.success(), "the window did not survive: {}", String::from_utf8_lossy(&out.stderr));
+    let report: SoakReport = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    eprintln!("{name}: {}", serde_json::to_string(&report).unwrap());
+    report
+}
+
+/// What every soak must show: it ran its time, drew frames, none non-finite, no frame stuck.
+fn healthy(r: &SoakReport, seconds: f64) {
+    // The last frame recorded starts before the time is up.
+    assert!(r.seconds >= seconds - 1.0, "ran {} s", r.seconds);
+    assert!(r.frames as f64 > 2.0 * seconds, "{} frames in {} s", r.frames, r.seconds);
+    assert_eq!(r.non_finite_frames, 0, "frames drew a non-finite position");
+    for (minute, [median, p99, _]) in r.frame_ms_by_minute.iter().enumerate() {
+        assert!(*median < 500.0 && *p99 < 2000.0, "minute {minute}: frames {median} ms median, {p99} ms p99");
+    }
+}
+
+#[test]
+fn a_panicking_solver_in_the_real_window_is_shown_and_recovered() {
+    let r = soak("faulty", 15, &["-m", "faulty", "--soak-methods", "faulty,rigid", "--soak-seed", "3"]);
+    healthy(&r, 15.0);
+    assert!(r.events.get("fault").copied().unwrap_or(0) >= 1, "the script set the fault: {:?}", r.events);
+    assert!(!r.panics.is_empty(), "a panic was shown");
+    for p in &r.panics {
+        assert!(p.contains("panicked") && p.contains("fault was set") && p.contains("Reset"), "{p}");
+    }
+    // Every panic but one in the last moments before the end was recovered from.
+    assert!(
+        r.recovered as usize + 1 >= r.panics.len() && r.recovered >= 1,
+        "{} of {} recovered",
+        r.recovered,
+        r.panics.len()
+    );
+}
+
+#[test]
+fn a_thirty_second_soak_of_the_real_window() {
+    let r = soak("30s", 30, &[]);
+    healthy(&r, 30.0);
+    let kinds = r.events.len();
+    let total: u64 = r.events.values().sum();
+    assert!(kinds >= 6 && total >= 30, "{total} events of {kinds} kinds: {:?}", r.events);
+    assert!(!r.errors.is_empty(), "out-of-range edits were refused with a message");
+}
+
+#[test]
+#[ignore]
+fn a_ten_minute_soak_of_the_real_window_keeps_its_memory_flat() {
+    let r = soak("10min", 600, &[]);
+    healthy(&r, 600.0);
+    let at_one_minute = r.resident_mb.iter().find(|(t, _)| *t >= 60.0).unwrap().1;
+    let peak = r.resident_mb.iter().filter(|(t, _)| *t >= 60.0).map(|s| s.1).fold(0.0, f64::max);
+    eprintln!("resident memory: {at_one_minute:.0} MB at one minute, at most {peak:.0} MB after");
+    assert!(peak <= 1.1 * at_one_minute, "memory grew from {at_one_minute:.0} MB to {peak:.0} MB");
+}
