@@ -3,8 +3,10 @@
 //! orientation), parameters edited within and outside their ranges, methods and scenes switched,
 //! drags cleared, resets, and, for the `faulty` test method, a fault that makes its next step panic
 //! — and what the window lived through is recorded: frames and their times by minute, resident
-//! memory once a second, frames that would draw a non-finite position, the panics the panel showed
-//! and whether each was recovered from (by *Reset* or by a method switch, alternately).
+//! memory once a second and at home (its first scene at rest, revisited once a minute, so that a
+//! leak shows apart from the memory the scene of the moment needs), frames that would draw a
+//! non-finite position, the panics the panel showed and whether each was recovered from (by *Reset*
+//! or by a method switch, alternately).
 
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -26,6 +28,8 @@ pub struct SoakOptions {
     pub methods: Vec<String>,
     /// Built-in scenes to switch among (when `methods` is empty).
     pub scenes: Vec<String>,
+    /// The scene it starts on, and returns to once a minute to measure memory at home.
+    pub home: String,
     /// The script's seed.
     pub seed: u64,
 }
@@ -41,6 +45,10 @@ pub struct SoakReport {
     pub events: BTreeMap<String, u64>,
     /// `(seconds, MB)`: resident memory once a second.
     pub resident_mb: Vec<(f64, f64)>,
+    /// `(seconds, MB)`: resident memory at home — once a minute (with scene switches) the soak goes
+    /// back to its first scene at rest, drags cleared, and measures after [`HOME_SETTLE`] seconds
+    /// without events: what a leak would raise, whatever scene the minute ended on.
+    pub home_mb: Vec<(f64, f64)>,
     /// Frame times of each minute: `[median, 99th percentile, longest]`, milliseconds.
     pub frame_ms_by_minute: Vec<[f64; 3]>,
     /// Frames whose positions held a non-finite number.
@@ -73,9 +81,14 @@ pub struct Soak {
     /// Time a panic was seen and not yet recovered from.
     panicked: Option<f64>,
     recover_by_reset: bool,
+    /// When the current visit home began, if one is under way.
+    home_since: Option<f64>,
     minute_frames: Vec<f64>,
     report: SoakReport,
 }
+
+/// Seconds at home, without events, before memory is measured there.
+pub const HOME_SETTLE: f64 = 8.0;
 
 /// Drag ids of the soak's own, far from the mouse's.
 const FIRST_DRAG: u64 = 1 << 40;
@@ -94,6 +107,7 @@ impl Soak {
             next_drag: FIRST_DRAG,
             panicked: None,
             recover_by_reset: true,
+            home_since: None,
             minute_frames: Vec::new(),
             report: SoakReport::default(),
         }
@@ -142,8 +156,22 @@ impl Soak {
                 pokes.push(Poke::Sim(Command::MoveDrag(id, DragKind::Position(target + 0.01 * nudge))));
             }
         }
-        match self.panicked {
-            Some(seen) if t > seen + 0.5 => {
+        let homes = self.options.methods.is_empty() && !self.options.home.is_empty();
+        let visits = self.report.home_mb.len() + usize::from(self.home_since.is_some());
+        match (self.panicked, self.home_since) {
+            (_, Some(since)) if t >= since + HOME_SETTLE => {
+                self.home_since = None;
+                self.report.home_mb.push((t, resident_bytes() as f64 / 1e6));
+            }
+            (_, Some(_)) => {}
+            _ if homes && t >= 60.0 * (visits + 1) as f64 => {
+                self.home_since = Some(t);
+                self.drags.clear();
+                self.count("home");
+                pokes.push(Poke::Ui(UiAction::SwitchScene(self.options.home.clone())));
+                pokes.push(Poke::Ui(UiAction::ClearDrags));
+            }
+            (Some(seen), None) if t > seen + 0.5 => {
                 self.panicked = Some(f64::INFINITY); // once
                 self.recover_by_reset = !self.recover_by_reset;
                 let poke = if self.recover_by_reset { self.switch_method() } else { UiAction::Reset };

@@ -103,6 +103,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
             report: args.soak_report.clone(),
             methods: args.soak_methods.clone(),
             scenes: shellwarp::scene::builtin_names().into_iter().map(String::from).collect(),
+            home: args.scene.clone(),
             seed: args.soak_seed,
         }),
     };
