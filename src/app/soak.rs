@@ -83,12 +83,17 @@ pub struct Soak {
     recover_by_reset: bool,
     /// When the current visit home began, if one is under way.
     home_since: Option<f64>,
+    /// When the last panic was seen (the start before any).
+    last_panic: f64,
     minute_frames: Vec<f64>,
     report: SoakReport,
 }
 
 /// Seconds at home, without events, before memory is measured there.
 pub const HOME_SETTLE: f64 = 8.0;
+
+/// Seconds `faulty` may run without a panic before the script sets its fault.
+const FAULT_AFTER: f64 = 4.0;
 
 /// Drag ids of the soak's own, far from the mouse's.
 const FIRST_DRAG: u64 = 1 << 40;
@@ -108,6 +113,7 @@ impl Soak {
             panicked: None,
             recover_by_reset: true,
             home_since: None,
+            last_panic: 0.0,
             minute_frames: Vec::new(),
             report: SoakReport::default(),
         }
@@ -180,7 +186,7 @@ impl Soak {
             }
             _ if t >= self.next_event => {
                 self.next_event = t + self.uniform(0.1, 0.7);
-                pokes.extend(self.event(snapshot));
+                pokes.extend(self.event(snapshot, t));
             }
             _ => {}
         }
@@ -198,6 +204,7 @@ impl Soak {
             SimStatus::Diverged(why) if why.contains("panicked") && self.panicked.is_none() => {
                 r.panics.push(why.clone());
                 self.panicked = Some(t);
+                self.last_panic = t;
             }
             SimStatus::Running if self.panicked.is_some() => {
                 r.recovered += 1;
@@ -242,9 +249,13 @@ impl Soak {
     }
 
     /// One scripted event.
-    fn event(&mut self, snapshot: &Snapshot) -> Vec<Poke> {
+    fn event(&mut self, snapshot: &Snapshot, t: f64) -> Vec<Poke> {
         let n = snapshot.positions.len().max(1);
         let faulty = snapshot.method == "faulty";
+        if faulty && t > self.last_panic + FAULT_AFTER && self.panicked.is_none() {
+            self.count("fault");
+            return vec![Poke::Sim(Command::SetParam("fault".into(), 1.0))];
+        }
         let scenes = self.options.methods.is_empty() && !self.options.scenes.is_empty();
         let kind = self.below(12);
         let poke = match kind {
