@@ -53,6 +53,12 @@ pub fn budget() -> u64 {
     })
 }
 
+/// Resident memory of this process, bytes (Linux; 0 elsewhere): what the soak and the fuzzer watch.
+pub fn resident_bytes() -> u64 {
+    let statm = std::fs::read_to_string("/proc/self/statm").unwrap_or_default();
+    statm.split_whitespace().nth(1).and_then(|p| p.parse::<u64>().ok()).unwrap_or(0) * 4096
+}
+
 /// Refuse `needed` bytes of `what` if they exceed the [`budget`]; `what` is only formatted when refused.
 pub fn check(needed: u64, what: impl FnOnce() -> String) -> Result<(), TooLarge> {
     let available = budget();

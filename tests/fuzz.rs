@@ -372,19 +372,13 @@ fn guarded(seed: u64, deadline: Duration) -> Outcome {
 /// The case running now, for the memory watchdog.
 static CURRENT: AtomicU64 = AtomicU64::new(u64::MAX);
 
-/// Resident memory of this process, bytes (Linux; 0 elsewhere).
-fn resident_bytes() -> u64 {
-    let statm = std::fs::read_to_string("/proc/self/statm").unwrap_or_default();
-    statm.split_whitespace().nth(1).and_then(|p| p.parse::<u64>().ok()).unwrap_or(0) * 4096
-}
-
 /// A thread that ends the process, naming the case, once resident memory passes `limit` bytes: a
 /// case that grows without being refused would otherwise be killed by the kernel, seed unknown.
 fn watch_memory(limit: u64) {
     std::thread::spawn(move || {
         loop {
             std::thread::sleep(Duration::from_millis(20));
-            let rss = resident_bytes();
+            let rss = shellwarp::memory::resident_bytes();
             if rss > limit {
                 eprintln!("case {} grew the process to {:.2} GB", CURRENT.load(Ordering::SeqCst), rss as f64 / 1e9);
                 std::process::exit(3);
@@ -412,7 +406,7 @@ fn campaign(first: u64, cases: u64, log: bool) -> (Vec<(u64, Outcome)>, [usize; 
                 err,
                 "{seed} {outcome:?} {:.0} ms {:.0} MB",
                 t.elapsed().as_secs_f64() * 1e3,
-                resident_bytes() as f64 / 1e6
+                shellwarp::memory::resident_bytes() as f64 / 1e6
             );
         }
         match outcome {

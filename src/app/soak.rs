@@ -167,7 +167,7 @@ impl Soak {
         match (self.panicked, self.home_since) {
             (_, Some(since)) if t >= since + HOME_SETTLE => {
                 self.home_since = None;
-                self.report.home_mb.push((t, resident_bytes() as f64 / 1e6));
+                self.report.home_mb.push((t, crate::memory::resident_bytes() as f64 / 1e6));
             }
             (_, Some(_)) => {}
             _ if homes && t >= 60.0 * (visits + 1) as f64 => {
@@ -221,7 +221,7 @@ impl Soak {
         }
         if t >= self.next_sample {
             self.next_sample += 1.0;
-            r.resident_mb.push((t, resident_bytes() as f64 / 1e6));
+            r.resident_mb.push((t, crate::memory::resident_bytes() as f64 / 1e6));
         }
         if (t / 60.0) as usize > r.frame_ms_by_minute.len() {
             self.close_minute();
@@ -325,10 +325,4 @@ impl Soak {
         self.close_minute();
         self.report.clone()
     }
-}
-
-/// Resident memory of this process, bytes (Linux; 0 elsewhere).
-pub fn resident_bytes() -> u64 {
-    let statm = std::fs::read_to_string("/proc/self/statm").unwrap_or_default();
-    statm.split_whitespace().nth(1).and_then(|p| p.parse::<u64>().ok()).unwrap_or(0) * 4096
 }
