@@ -1,5 +1,6 @@
 //! The simulation-thread hand-off: no torn frames, neither side slows the other down, pacing,
-//! background work shown while paused, and no exploded frames after a divergence.
+//! background work shown while paused, no exploded frames after a divergence, panics caught, and a
+//! hanging solver seen stuck and left behind.
 
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -10,7 +11,8 @@ use shellwarp::solver::{DragSet, ParamValue, Progress, Solver, SolverError, Step
 
 /// A solver whose every vertex sits at (k, k, k) after step k; `delay` makes steps slow, `diverge_at`
 /// makes that step fail (once) with non-finite positions, `panic_at` makes it panic (once, and once
-/// more in the reset after it when `panic_on_reset`), and `work` is background progress the test sets.
+/// more in the reset after it when `panic_on_reset`), `work` is background progress the test sets, and
+/// `checkpointed` spends the delay in short sleeps between checkpoints (as Newton iterations pass them).
 struct Counter {
     positions: Vec<DVec3>,
     k: u64,
@@ -21,6 +23,7 @@ struct Counter {
     panic_on_reset: bool,
     work: Arc<Mutex<Option<f32>>>,
     drags: DragSet,
+    checkpointed: bool,
 }
 
 impl Counter {
@@ -35,6 +38,7 @@ impl Counter {
             panic_on_reset: false,
             work: Arc::default(),
             drags: DragSet::new(n, true),
+            checkpointed: false,
         }
     }
 
@@ -51,7 +55,15 @@ impl Solver for Counter {
         self.h
     }
     fn step(&mut self) -> Result<StepStats, SolverError> {
-        std::thread::sleep(self.delay);
+        if self.checkpointed {
+            let start = Instant::now();
+            while start.elapsed() < self.delay {
+                shellwarp::solver::supersede::checkpoint();
+                std::thread::sleep(Duration::from_millis(1));
+            }
+        } else {
+            std::thread::sleep(self.delay);
+        }
         self.k += 1;
         if self.panic_at == Some(self.k) {
             self.panic_at = None;
@@ -249,4 +261,67 @@ fn a_panicking_solver_is_reported_and_reset_or_a_new_method_recovers() {
     assert!(wait_for(&mut sim, |s| matches!(&s.status, SimStatus::Diverged(r) if r.contains("panicked"))));
     sim.send(Command::Replace(Counter::boxed(20, 0.01, Duration::ZERO)));
     assert!(wait_for(&mut sim, |s| s.status == SimStatus::Running && s.steps > 20), "a new method did not recover");
+}
+
+#[test]
+fn a_hanging_solver_is_seen_stuck_and_is_left_behind_without_waiting() {
+    // A step of an hour stands for one that never returns.
+    let start = Instant::now();
+    let mut sim =
+        SimHandle::spawn(Counter::boxed(20, 0.01, Duration::from_secs(3600)), false, Pacing::AsFastAsPossible);
+    while sim.stuck_for().is_none_or(|d| d < Duration::from_millis(300)) {
+        assert!(start.elapsed() < Duration::from_secs(10), "never seen inside its step");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    // (Marked in whole milliseconds.)
+    assert!(sim.stuck_for().unwrap() <= start.elapsed() + Duration::from_millis(1), "stuck no longer than it ran");
+    // Abandoned for a new thread: returns at once, and the new thread runs.
+    let abandoned = Instant::now();
+    std::mem::replace(
+        &mut sim,
+        SimHandle::spawn(Counter::boxed(20, 0.01, Duration::ZERO), false, Pacing::AsFastAsPossible),
+    )
+    .abandon();
+    assert!(abandoned.elapsed() < Duration::from_millis(100));
+    assert!(wait_for(&mut sim, |s| s.status == SimStatus::Running && s.steps > 20), "the new thread did not run");
+    assert!(sim.stuck_for().is_none_or(|d| d < Duration::from_secs(1)));
+    // Dropping a handle whose thread is stuck waits at most QUIT_WAIT.
+    let stuck = SimHandle::spawn(Counter::boxed(20, 0.01, Duration::from_secs(3600)), false, Pacing::AsFastAsPossible);
+    std::thread::sleep(Duration::from_millis(50));
+    let dropped = Instant::now();
+    drop(stuck);
+    let waited = dropped.elapsed();
+    assert!(waited < shellwarp::app::sim_thread::QUIT_WAIT + Duration::from_millis(500), "waited {waited:?}");
+}
+
+#[test]
+fn a_long_step_that_a_reset_or_a_switch_would_discard_stops_at_its_next_checkpoint() {
+    let long = || {
+        let mut c = Counter::new(20, 0.01, Duration::from_secs(3600));
+        c.checkpointed = true;
+        Box::new(c)
+    };
+    let mut sim = SimHandle::spawn(long(), false, Pacing::AsFastAsPossible);
+    let inside = |sim: &SimHandle| sim.stuck_for().is_some_and(|d| d > Duration::from_millis(200));
+    let start = Instant::now();
+    while !inside(&sim) {
+        assert!(start.elapsed() < Duration::from_secs(10), "never inside its step");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    // Reset: the step stops, the solver is reset and steps again (into another hour-long step).
+    // The old step has been running for `before`; a new one is seen by a shorter time inside.
+    let before = sim.stuck_for().unwrap();
+    let reset = Instant::now();
+    sim.send(Command::Reset);
+    while sim.stuck_for().is_none_or(|d| d >= before) {
+        assert!(reset.elapsed() < Duration::from_secs(2), "the step was not stopped");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    // A switch: the step stops and the new solver runs on the same thread.
+    while !inside(&sim) {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    sim.send(Command::Replace(Counter::boxed(20, 0.01, Duration::ZERO)));
+    assert!(wait_for(&mut sim, |s| s.status == SimStatus::Running && s.steps > 20), "the new solver did not run");
+    assert!(reset.elapsed() < Duration::from_secs(5));
 }

@@ -1,6 +1,7 @@
 //! Modal analysis: eigenpairs against a dense generalized eigensolver (an anchored and a free shell),
 //! the cantilever's Euler–Bernoulli frequency ratio, and relative residuals ≤ 1e-8 for every pair of
-//! the tests and of the built-in shell scenes. (MWTS dynamics: `tests/modal_dynamics.rs`.)
+//! the tests and of the built-in shell scenes, and progress reported within the eigen solve (where a
+//! superseded background analysis stops). (MWTS dynamics: `tests/modal_dynamics.rs`.)
 
 mod modal_common;
 
@@ -192,4 +193,41 @@ fn the_exported_matrices_are_the_analysed_problem() {
     assert!((lowest - reported).abs() <= 1e-8 * reported, "{lowest} vs {reported}");
     assert!(info["shift"].as_f64().unwrap() < 0.0);
     std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn the_eigen_solve_reports_as_it_goes_so_a_superseded_analysis_stops_inside_it() {
+    use std::cell::RefCell;
+
+    use shellwarp::solver::supersede::{Generation, unless_superseded};
+
+    let s = scene::load("creature", &[]).unwrap();
+    let masses = s.masses();
+    let stiffness = ShellStiffness::from(&s.scene.material);
+    let p =
+        ModalProblem { mesh: &s.mesh, anchors: &s.anchors, masses: &masses, stiffness, modes: 16, keep_rigid: false };
+    let seen = RefCell::new(Vec::new());
+    analyse(&p, &|f| seen.borrow_mut().push(f)).unwrap();
+    let seen = seen.into_inner();
+    let inside: Vec<f32> = seen.iter().copied().filter(|f| (0.3..0.9).contains(f)).collect();
+    assert!(inside.len() >= 5, "reports within the eigen solve: {seen:?}");
+    assert!(seen.windows(2).all(|w| w[0] <= w[1]) && seen.last() == Some(&1.0), "{seen:?}");
+    // Superseded at its third report within the eigen solve: nothing is reported after it.
+    let generation = Generation::default();
+    let ticket = generation.next();
+    let after = RefCell::new(0);
+    let stopped = unless_superseded(
+        &ticket,
+        &|f| {
+            if f > 0.3 {
+                *after.borrow_mut() += 1;
+                if *after.borrow() == 3 {
+                    generation.cancel_all();
+                }
+            }
+        },
+        |report| analyse(&p, report),
+    );
+    assert!(stopped.is_none());
+    assert_eq!(after.into_inner(), 3);
 }

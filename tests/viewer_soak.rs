@@ -1,7 +1,8 @@
 //! The real window under Xvfb driven by a random script (`view --soak`): drags and twists added and
 //! moved, parameters edited in and out of range, methods and scenes switched, resets — and a solver
-//! that panics on command. The window must survive all of it (exit cleanly), never draw a non-finite
-//! position, show every panic with its message and recover from it (by *Reset* or a method switch).
+//! that panics or hangs on command. The window must survive all of it (exit cleanly), never draw a
+//! non-finite position, show every panic with its message and every hang as stuck, and recover from
+//! each (by *Reset* or a method switch).
 //! The 30-second soak and the panicking solver are in the suite; the 10-minute soak, which also
 //! checks that resident memory at home stays flat after its first minute, is
 //! `cargo test --release --test viewer_soak -- --ignored`.
@@ -43,21 +44,19 @@ fn healthy(r: &SoakReport, seconds: f64) {
 }
 
 #[test]
-fn a_panicking_solver_in_the_real_window_is_shown_and_recovered() {
-    let r = soak("faulty", 15, &["-m", "faulty", "--soak-methods", "faulty,rigid", "--soak-seed", "3"]);
-    healthy(&r, 15.0);
+fn a_panicking_or_hanging_solver_in_the_real_window_is_shown_and_recovered() {
+    let r = soak("faulty", 25, &["-m", "faulty", "--soak-methods", "faulty,rigid", "--soak-seed", "3"]);
+    healthy(&r, 25.0);
     assert!(r.events.get("fault").copied().unwrap_or(0) >= 1, "the script set the fault: {:?}", r.events);
     assert!(!r.panics.is_empty(), "a panic was shown");
     for p in &r.panics {
         assert!(p.contains("panicked") && p.contains("fault was set") && p.contains("Reset"), "{p}");
     }
-    // Every panic but one in the last moments before the end was recovered from.
-    assert!(
-        r.recovered as usize + 1 >= r.panics.len() && r.recovered >= 1,
-        "{} of {} recovered",
-        r.recovered,
-        r.panics.len()
-    );
+    assert!(!r.hangs.is_empty(), "a hang was shown: {r:?}");
+    assert!(r.hangs.iter().all(|h| h.contains("`faulty` stuck in a step")), "{:?}", r.hangs);
+    // Every fault but one in the last moments before the end was recovered from.
+    let faults = r.panics.len() + r.hangs.len();
+    assert!(r.recovered as usize + 1 >= faults && r.recovered >= 2, "{} of {faults} recovered", r.recovered);
 }
 
 #[test]

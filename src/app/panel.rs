@@ -275,6 +275,15 @@ fn transport(ui: &mut egui::Ui, state: &mut PanelState, snap: &Snapshot, actions
             actions.push(UiAction::SetPacing(state.speed.map_or(Pacing::AsFastAsPossible, Pacing::Scaled)));
         }
     });
+    if let SimStatus::Stuck(seconds) = snap.status {
+        ui.colored_label(ERROR, format!("Stuck: `{}` has not returned from its step for {seconds:.0} s.", snap.method));
+        let reset = ui.button("Reset on a new thread");
+        let help = "Rebuild the scene and run it on a new simulation thread (R); the stuck one is left to \
+                    end when its step returns. A method switch does the same.";
+        if reset.on_hover_text(help).clicked() {
+            actions.push(UiAction::Reset);
+        }
+    }
     if let SimStatus::Diverged(reason) = &snap.status {
         ui.colored_label(ERROR, format!("Diverged: {reason}"));
         let reset = ui.button("Reset after divergence");

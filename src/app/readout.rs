@@ -8,7 +8,10 @@
 //! the target (the scene's `solver.accuracy`, else 5%) the readout becomes a warning, and the worker
 //! looks once per method, mode count and set of dragged vertices for a remedy: the cheapest model
 //! among a few steps up from the running one that meets the target under the same drags
-//! ([`crate::solver::auto::remedy`]), named in the warning with its own estimate.
+//! ([`crate::solver::auto::remedy`]), named in the warning with its own estimate. When the readout
+//! goes (a scene or method switch, or watching stops), the worker's judgement under way stops at its
+//! next iteration ([`crate::solver::supersede`]) and the worker ends: a remedy search builds and
+//! settles several models, and must not go on holding their memory for a scene no longer shown.
 
 use std::sync::mpsc::{self, Receiver, Sender, TryRecvError};
 use std::time::{Duration, Instant};
@@ -17,6 +20,7 @@ use glam::DVec3;
 
 use crate::scene::Setup;
 use crate::solver::quality::{self, DEFAULT_TARGET};
+use crate::solver::supersede::{Generation, unless_superseded};
 use crate::solver::{DragKind, DragSet, ParamValue, Solver, auto};
 
 /// The shortest time between two estimates.
@@ -97,6 +101,8 @@ pub struct Readout {
     sent_for: Option<(u64, u64)>,
     remedy_for: Option<RemedyKey>,
     view: ReadoutView,
+    /// The worker's ticket is current until the readout goes.
+    generation: Generation,
 }
 
 impl Readout {
@@ -105,13 +111,24 @@ impl Readout {
         let (jobs, inbox) = mpsc::channel::<Job>();
         let (outbox, findings) = mpsc::channel();
         let worker_setup = setup.clone();
+        let generation = Generation::default();
+        let ticket = generation.next();
         let spawned = std::thread::Builder::new().name("shellwarp-readout".into()).spawn(move || {
+            let quiet = |_: f32| {};
             for job in inbox {
-                if outbox.send(Finding::Estimate(job.step, judge(&worker_setup, &job))).is_err() {
+                let Some(estimate) = unless_superseded(&ticket, &quiet, |p| judge(&worker_setup, &job, p)) else {
+                    return;
+                };
+                if outbox.send(Finding::Estimate(job.step, estimate)).is_err() {
                     return;
                 }
-                if job.remedy && outbox.send(Finding::Remedy(remedy(&worker_setup, &job))).is_err() {
-                    return;
+                if job.remedy {
+                    let Some(r) = unless_superseded(&ticket, &quiet, |p| remedy(&worker_setup, &job, p)) else {
+                        return;
+                    };
+                    if outbox.send(Finding::Remedy(r)).is_err() {
+                        return;
+                    }
                 }
             }
         });
@@ -126,6 +143,7 @@ impl Readout {
             sent_for: None,
             remedy_for: None,
             view: ReadoutView { target, failure, ..ReadoutView::default() },
+            generation,
         }
     }
 
@@ -194,6 +212,12 @@ impl Readout {
     }
 }
 
+impl Drop for Readout {
+    fn drop(&mut self) {
+        self.generation.cancel_all();
+    }
+}
+
 /// The mode count among a solver's parameters, if it has one.
 fn modes(params: &[ParamValue]) -> Option<usize> {
     params.iter().find(|p| p.spec.name == "modes").map(|p| p.value as usize)
@@ -208,14 +232,15 @@ fn dragged(drags: &DragSet) -> Vec<usize> {
     v
 }
 
-fn judge(setup: &Setup, job: &Job) -> Result<f64, String> {
-    quality::estimate(&quality::with_params(setup, &job.params), &job.positions, &job.drags).map_err(|e| e.to_string())
+fn judge(setup: &Setup, job: &Job, progress: &dyn Fn(f32)) -> Result<f64, String> {
+    let setup = quality::with_params(setup, &job.params);
+    quality::estimate_reporting(&setup, &job.positions, &job.drags, progress).map_err(|e| e.to_string())
 }
 
-fn remedy(setup: &Setup, job: &Job) -> String {
+fn remedy(setup: &Setup, job: &Job, progress: &dyn Fn(f32)) -> String {
     let setup = quality::with_params(setup, &job.params);
     let target = setup.scene.solver.accuracy.unwrap_or(DEFAULT_TARGET);
-    match auto::remedy(&setup, target, &job.drags, job.method, job.modes.unwrap_or(4)) {
+    match auto::remedy(&setup, target, &job.drags, (job.method, job.modes.unwrap_or(4)), progress) {
         Ok(choice) => {
             let w = choice.winner();
             if w.estimate <= target {

@@ -1,8 +1,19 @@
 //! The simulation thread: owns the solver, steps it at its fixed step with real-time pacing, takes
 //! commands through a channel and hands finished snapshots to the renderer through a wait-free
 //! triple buffer, so neither side ever blocks the other and the reader never sees a half-written frame.
+//!
+//! A solver that panics is caught and stopped as a diverging one is. A step whose result a reset or a
+//! switch will discard is superseded when that command is sent, and stops at its next checkpoint (a
+//! Newton iteration, [`crate::solver::supersede`]) instead of running on for as long as its settings
+//! say. A solver that never returns from a call (and passes no checkpoint) cannot be stopped from
+//! outside its thread: the thread marks when it enters the solver,
+//! so the window can see it stuck ([`SimHandle::stuck_for`]), and [`SimHandle::abandon`] leaves it
+//! behind for a new thread (it ends as soon as the solver returns, if ever); dropping a handle never
+//! waits for such a thread for more than [`QUIT_WAIT`].
 
 use std::panic::AssertUnwindSafe;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -13,6 +24,7 @@ use triple_buffer::{Output, triple_buffer};
 use super::ghost::{Ghost, GhostView};
 use super::readout::{Readout, ReadoutView};
 use crate::scene::Setup;
+use crate::solver::supersede::{Generation, unless_superseded};
 use crate::solver::{Drag, DragId, DragKind, ParamValue, Progress, Solver, SolverError, StepStats};
 
 /// How simulated time relates to wall-clock time.
@@ -33,6 +45,9 @@ pub enum SimStatus {
     Paused,
     /// Stopped by divergence; `Reset` resumes.
     Diverged(String),
+    /// The solver has not returned from a call for this many seconds (set by the window, which
+    /// sees it through [`SimHandle::stuck_for`]; the thread itself cannot publish while stuck).
+    Stuck(f64),
 }
 
 /// Everything the UI and renderer need from one published state.
@@ -104,13 +119,49 @@ pub struct SimHandle {
     commands: Sender<Command>,
     output: Output<Snapshot>,
     thread: Option<JoinHandle<()>>,
+    in_solver: InSolver,
+    /// Supersedes the step under way (its result is about to be discarded).
+    discard: Generation,
 }
+
+/// When the simulation thread entered its solver: milliseconds since `epoch` plus one, 0 while it
+/// is outside.
+#[derive(Clone)]
+struct InSolver {
+    epoch: Instant,
+    since: Arc<AtomicU64>,
+}
+
+impl InSolver {
+    fn new() -> Self {
+        Self { epoch: Instant::now(), since: Arc::new(AtomicU64::new(0)) }
+    }
+
+    /// Run `call` marked as inside the solver.
+    fn mark<T>(&self, call: impl FnOnce() -> T) -> T {
+        let now = self.epoch.elapsed().as_millis() as u64 + 1;
+        self.since.store(now, Ordering::Relaxed);
+        let result = call();
+        self.since.store(0, Ordering::Relaxed);
+        result
+    }
+
+    fn elapsed(&self) -> Option<Duration> {
+        let since = self.since.load(Ordering::Relaxed).checked_sub(1)?;
+        Some(self.epoch.elapsed().saturating_sub(Duration::from_millis(since)))
+    }
+}
+
+/// The longest a dropped handle waits for its thread to end.
+pub const QUIT_WAIT: Duration = Duration::from_secs(2);
 
 impl SimHandle {
     /// Start the thread with `solver`, running (or paused).
     pub fn spawn(solver: Box<dyn Solver>, paused: bool, pacing: Pacing) -> Self {
         let (tx, rx) = mpsc::channel();
-        let mut sim = SimLoop::new(solver, paused, pacing);
+        let in_solver = InSolver::new();
+        let discard = Generation::default();
+        let mut sim = SimLoop::new(solver, paused, pacing, in_solver.clone(), discard.clone());
         let (mut input, output) = triple_buffer(&sim.snapshot());
         let thread = std::thread::Builder::new()
             .name("shellwarp-sim".into())
@@ -121,11 +172,28 @@ impl SimHandle {
                 });
             })
             .ok();
-        Self { commands: tx, output, thread }
+        Self { commands: tx, output, thread, in_solver, discard }
     }
 
-    /// Send a command (ignored if the thread has ended).
+    /// How long the solver has been inside its current call (a step, a parameter change), if it is
+    /// in one: a few seconds are normal for a large implicit step, minutes mean it hangs.
+    pub fn stuck_for(&self) -> Option<Duration> {
+        self.in_solver.elapsed()
+    }
+
+    /// Leave the thread behind without waiting for it (its solver hangs): it is told to quit and
+    /// ends when, if ever, its solver returns.
+    pub fn abandon(mut self) {
+        self.send(Command::Quit);
+        self.thread = None;
+    }
+
+    /// Send a command (ignored if the thread has ended). A reset or a new solver first supersedes
+    /// the step under way, whose result it would discard.
     pub fn send(&self, command: Command) {
+        if matches!(command, Command::Reset | Command::Replace(_) | Command::Quit) {
+            self.discard.cancel_all();
+        }
         let _ = self.commands.send(command);
     }
 
@@ -142,9 +210,16 @@ impl SimHandle {
 
 impl Drop for SimHandle {
     fn drop(&mut self) {
-        let _ = self.commands.send(Command::Quit);
+        self.send(Command::Quit);
         if let Some(t) = self.thread.take() {
-            let _ = t.join();
+            // A thread stuck in its solver is left behind rather than hanging the window's exit.
+            let start = Instant::now();
+            while !t.is_finished() && start.elapsed() < QUIT_WAIT {
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            if t.is_finished() {
+                let _ = t.join();
+            }
         }
     }
 }
@@ -174,6 +249,10 @@ struct SimLoop {
     time: f64,
     /// The quality readout, if watched.
     readout: Option<Readout>,
+    /// Marks calls into the solver, for [`SimHandle::stuck_for`].
+    in_solver: InSolver,
+    /// Each step runs on a ticket of this; [`SimHandle::send`] supersedes it.
+    discard: Generation,
 }
 
 /// When more than this much simulated time is owed, the backlog is dropped instead of caught up.
@@ -183,7 +262,7 @@ const MAX_BACKLOG: f64 = 0.25;
 const IDLE_WAIT: Duration = Duration::from_millis(20);
 
 impl SimLoop {
-    fn new(solver: Box<dyn Solver>, paused: bool, pacing: Pacing) -> Self {
+    fn new(solver: Box<dyn Solver>, paused: bool, pacing: Pacing, in_solver: InSolver, discard: Generation) -> Self {
         Self {
             last_good: solver.positions().to_vec(),
             solver,
@@ -199,6 +278,8 @@ impl SimLoop {
             ghost: None,
             time: 0.0,
             readout: None,
+            in_solver,
+            discard,
         }
     }
 
@@ -267,7 +348,8 @@ impl SimLoop {
         if matches!(command, Command::Quit) {
             return false;
         }
-        match std::panic::catch_unwind(AssertUnwindSafe(|| self.apply_one(command))) {
+        let in_solver = self.in_solver.clone();
+        match in_solver.mark(|| std::panic::catch_unwind(AssertUnwindSafe(|| self.apply_one(command)))) {
             Ok(result) => self.last_error = result.err().map(|e| e.to_string()),
             Err(payload) => {
                 let message = panicked(payload.as_ref());
@@ -359,8 +441,17 @@ impl SimLoop {
             return;
         }
         // A panicking solver stops as a diverging one does; the thread, and the window, go on.
-        let stepped = std::panic::catch_unwind(AssertUnwindSafe(|| self.solver.step()));
-        match stepped.map_err(|payload| panicked(payload.as_ref())) {
+        let (in_solver, ticket) = (&self.in_solver, self.discard.next());
+        let solver = &mut self.solver;
+        let step = || unless_superseded(&ticket, &|_| {}, |_| solver.step());
+        let stepped = in_solver.mark(|| std::panic::catch_unwind(AssertUnwindSafe(step)));
+        let outcome = match stepped {
+            // A superseded step: the reset or switch that discards it is the next command.
+            Ok(None) => return,
+            Ok(Some(result)) => Ok(result),
+            Err(payload) => Err(panicked(payload.as_ref())),
+        };
+        match outcome {
             Ok(Ok(stats)) => {
                 self.stats = stats;
                 self.steps += 1;

@@ -1,12 +1,13 @@
 //! A soak of the real window: for a set time the viewer is driven by a seeded random script through
 //! the paths a user's hands take — drags added and moved like the mouse's (position and
 //! orientation), parameters edited within and outside their ranges, methods and scenes switched,
-//! drags cleared, resets, and, for the `faulty` test method, a fault that makes its next step panic
-//! — and what the window lived through is recorded: frames and their times by minute, resident
-//! memory once a second and at home (its first scene at rest, revisited once a minute, so that a
-//! leak shows apart from the memory the scene of the moment needs), frames that would draw a
-//! non-finite position, the panics the panel showed and whether each was recovered from (by *Reset*
-//! or by a method switch, alternately).
+//! drags cleared, resets (its first minute's scene switches tour every scene in order), and, for
+//! the `faulty` test method, a fault that makes its next step panic or, every other time, never
+//! return — and what the window lived through is recorded: frames and their times by minute,
+//! resident memory once a second and at home (its first scene at rest, revisited once a minute, so
+//! that a leak shows apart from the memory the scene of the moment needs), frames that would draw a
+//! non-finite position, the panics and hangs the panel showed and whether each was recovered from
+//! (by *Reset* or by a method switch, alternately).
 
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -49,13 +50,19 @@ pub struct SoakReport {
     /// back to its first scene at rest, drags cleared, and measures after [`HOME_SETTLE`] seconds
     /// without events: what a leak would raise, whatever scene the minute ended on.
     pub home_mb: Vec<(f64, f64)>,
+    /// What ran at each home measurement — the method shown, its steps and status, and the
+    /// program's own threads (the simulation's, workers still loading, analysing or judging) — to
+    /// tell a leak from work still under way.
+    pub home_state: Vec<String>,
     /// Frame times of each minute: `[median, 99th percentile, longest]`, milliseconds.
     pub frame_ms_by_minute: Vec<[f64; 3]>,
     /// Frames whose positions held a non-finite number.
     pub non_finite_frames: u64,
     /// The messages of the panics the panel showed.
     pub panics: Vec<String>,
-    /// Panics after which the simulation ran again.
+    /// Solvers the panel showed stuck in a step (with the seconds it had been, when first shown).
+    pub hangs: Vec<String>,
+    /// Panics and hangs after which the simulation ran again.
     pub recovered: u64,
     /// Distinct error messages the simulation reported (refused parameters, drags, divergences).
     pub errors: Vec<String>,
@@ -78,8 +85,12 @@ pub struct Soak {
     next_sample: f64,
     drags: Vec<DragId>,
     next_drag: u64,
-    /// Time a panic was seen and not yet recovered from.
+    /// Time a panic or hang was seen and not yet recovered from.
     panicked: Option<f64>,
+    /// Whether the next fault set is a hang (they alternate, a panic first).
+    hang_next: bool,
+    /// Scenes shown by the first minute's tour so far.
+    toured: usize,
     recover_by_reset: bool,
     /// When the current visit home began, if one is under way.
     home_since: Option<f64>,
@@ -91,6 +102,9 @@ pub struct Soak {
 
 /// Seconds at home, without events, before memory is measured there.
 pub const HOME_SETTLE: f64 = 8.0;
+
+/// Seconds at the start in which scene switches tour the scenes in order.
+const TOUR: f64 = 60.0;
 
 /// Seconds `faulty` may run without a panic before the script sets its fault.
 const FAULT_AFTER: f64 = 4.0;
@@ -111,6 +125,8 @@ impl Soak {
             drags: Vec::new(),
             next_drag: FIRST_DRAG,
             panicked: None,
+            hang_next: false,
+            toured: 0,
             recover_by_reset: true,
             home_since: None,
             last_panic: 0.0,
@@ -168,6 +184,14 @@ impl Soak {
             (_, Some(since)) if t >= since + HOME_SETTLE => {
                 self.home_since = None;
                 self.report.home_mb.push((t, crate::memory::resident_bytes() as f64 / 1e6));
+                let state = format!(
+                    "{} at step {} ({:?}); threads: {}",
+                    snapshot.method,
+                    snapshot.steps,
+                    snapshot.status,
+                    own_threads().join(", ")
+                );
+                self.report.home_state.push(state);
             }
             (_, Some(_)) => {}
             _ if homes && t >= 60.0 * (visits + 1) as f64 => {
@@ -203,6 +227,11 @@ impl Soak {
         match &snapshot.status {
             SimStatus::Diverged(why) if why.contains("panicked") && self.panicked.is_none() => {
                 r.panics.push(why.clone());
+                self.panicked = Some(t);
+                self.last_panic = t;
+            }
+            SimStatus::Stuck(seconds) if self.panicked.is_none() => {
+                r.hangs.push(format!("`{}` stuck in a step for {seconds:.0} s", snapshot.method));
                 self.panicked = Some(t);
                 self.last_panic = t;
             }
@@ -253,8 +282,7 @@ impl Soak {
         let n = snapshot.positions.len().max(1);
         let faulty = snapshot.method == "faulty";
         if faulty && t > self.last_panic + FAULT_AFTER && self.panicked.is_none() {
-            self.count("fault");
-            return vec![Poke::Sim(Command::SetParam("fault".into(), 1.0))];
+            return vec![self.fault()];
         }
         let scenes = self.options.methods.is_empty() && !self.options.scenes.is_empty();
         let kind = self.below(12);
@@ -289,6 +317,14 @@ impl Soak {
                 // Sent as the panel's edit would be, through the same command, unchecked.
                 Poke::Sim(Command::SetParam(p.name.to_string(), value))
             }
+            6 | 7 if scenes && t < TOUR => {
+                // The first minute tours the scenes in order, so that home is first measured once
+                // each has been shown (the first showing of a scene warms caches that then stay).
+                self.count("scene switch");
+                let pick = self.toured % self.options.scenes.len();
+                self.toured += 1;
+                Poke::Ui(UiAction::SwitchScene(self.options.scenes[pick].clone()))
+            }
             6 if scenes => {
                 self.count("scene switch");
                 let pick = self.below(self.options.scenes.len());
@@ -307,10 +343,7 @@ impl Soak {
                 self.drags.clear();
                 Poke::Ui(UiAction::ClearDrags)
             }
-            _ if faulty => {
-                self.count("fault");
-                Poke::Sim(Command::SetParam("fault".into(), 1.0))
-            }
+            _ if faulty => self.fault(),
             _ if matches!(snapshot.status, SimStatus::Diverged(_)) => {
                 self.count("reset after divergence");
                 Poke::Ui(UiAction::Reset)
@@ -320,9 +353,29 @@ impl Soak {
         vec![poke]
     }
 
+    /// Set the `faulty` method's fault: a panic and a hang in turn.
+    fn fault(&mut self) -> Poke {
+        self.count("fault");
+        let kind = if self.hang_next { 2.0 } else { 1.0 };
+        self.hang_next = !self.hang_next;
+        Poke::Sim(Command::SetParam("fault".into(), kind))
+    }
+
     /// The report so far, with the current minute's frames closed.
     pub fn report(&mut self) -> SoakReport {
         self.close_minute();
         self.report.clone()
     }
+}
+
+/// Names of this process's threads that are the program's own (`shellwarp-…`), sorted.
+fn own_threads() -> Vec<String> {
+    let tasks = std::fs::read_dir("/proc/self/task").into_iter().flatten().flatten();
+    let mut names: Vec<String> = tasks
+        .filter_map(|t| std::fs::read_to_string(t.path().join("comm")).ok())
+        .map(|n| n.trim().to_string())
+        .filter(|n| n.starts_with("shellwarp-"))
+        .collect();
+    names.sort();
+    names
 }

@@ -157,6 +157,10 @@ impl ApplicationHandler for App {
     }
 }
 
+/// How long the solver may stay inside one call before the panel calls it stuck (a creature's
+/// implicit discrete-shell step takes under 2 s).
+pub const STUCK_AFTER: std::time::Duration = std::time::Duration::from_secs(5);
+
 /// A scene's window title, static picture and camera orbit.
 fn scene_parts(setup: &Setup) -> (String, SceneView, Orbit) {
     let view = SceneView::new(setup);
@@ -268,7 +272,7 @@ impl Running {
             Key::Named(NamedKey::ArrowDown) => self.orbit.rotate(Vec2::new(0.0, -20.0)),
             Key::Character(c) => match c.as_str() {
                 "s" | "S" => self.sim.send(Command::StepOnce),
-                "r" | "R" => self.sim.send(Command::Reset),
+                "r" | "R" => self.apply(UiAction::Reset),
                 "c" | "C" => self.sim.send(Command::ClearDrags),
                 "w" | "W" => self.panel.wireframe = !self.panel.wireframe,
                 "+" | "=" => self.orbit.zoom(1.0),
@@ -319,6 +323,8 @@ impl Running {
 
     fn apply(&mut self, action: UiAction) {
         match action {
+            // A stuck solver cannot take a command: its scene is rebuilt and run on a new thread.
+            UiAction::Reset if self.stuck().is_some() => self.loader.start(self.source.clone()),
             UiAction::SwitchScene(name) => self.loader.start(SceneSource { scene: name, overrides: Vec::new() }),
             UiAction::SwitchMethod(method) => self.loader.start(self.source.with_method(&method)),
             UiAction::SetGhost(Some(method)) => {
@@ -338,7 +344,12 @@ impl Running {
         match self.loader.poll() {
             None => {}
             Some(Ok(Loaded { source, setup, solver })) => {
-                self.sim.send(Command::Replace(solver));
+                if self.stuck().is_some() {
+                    let pacing = self.panel.speed.map_or(Pacing::AsFastAsPossible, Pacing::Scaled);
+                    std::mem::replace(&mut self.sim, SimHandle::spawn(solver, false, pacing)).abandon();
+                } else {
+                    self.sim.send(Command::Replace(solver));
+                }
                 self.sim.send(Command::Watch(Some(Box::new(setup.clone()))));
                 let title;
                 (title, self.view, self.orbit) = scene_parts(&setup);
@@ -393,7 +404,10 @@ impl Running {
         self.last_frame = now;
         self.panel.fps = if dt > 0.0 { 0.9 * self.panel.fps + 0.1 / dt } else { self.panel.fps };
         self.finish_switch();
-        let snapshot = self.sim.latest().clone();
+        let mut snapshot = self.sim.latest().clone();
+        if let Some(seconds) = self.stuck() {
+            snapshot.status = SimStatus::Stuck(seconds);
+        }
         if let Some(report) = self.soak(&snapshot, dt * 1e3)? {
             return Ok(report);
         }
@@ -433,6 +447,11 @@ impl Running {
 }
 
 impl Running {
+    /// Seconds the solver has been inside one call, once that is past [`STUCK_AFTER`].
+    fn stuck(&self) -> Option<f64> {
+        self.sim.stuck_for().filter(|d| *d >= STUCK_AFTER).map(|d| d.as_secs_f64())
+    }
+
     /// Let the soak act on this frame; `Some(true)` once it is over and its report written.
     fn soak(&mut self, snapshot: &Snapshot, frame_ms: f64) -> anyhow::Result<Option<bool>> {
         let Some(soak) = self.soak.as_mut() else { return Ok(None) };

@@ -34,7 +34,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::run::{Stop, distance, run};
+use super::run::{Stop, distance, run_driven};
 use super::script::Script;
 use super::{DragSet, Solver, SolverError, quality, registry};
 use crate::scene::Setup;
@@ -192,20 +192,21 @@ pub fn choose(setup: &Setup, accuracy: f64) -> Result<Choice, SolverError> {
             })
             .collect(),
     };
-    choose_among(setup, accuracy, candidates, &DragSet::default())
+    choose_among(setup, accuracy, candidates, &DragSet::default(), &|_| {})
 }
 
 /// The cheapest shell model that meets `accuracy` under the drags as they stand (their targets
 /// held still), among a few steps up from `method` with `modes` modes: the same method with 2× and
 /// 4× the modes, `mwts-rs` with 1×, 2× and 4× the modes (each up to 64), and `ds-implicit`. The
 /// remedy the viewer's readout names when a model is not enough. The scene's tracks are replaced
-/// by `drags`.
+/// by `drags`. The fraction of candidates judged goes to `progress` (where the search is stopped,
+/// [`super::supersede`]).
 pub fn remedy(
     setup: &Setup,
     accuracy: f64,
     drags: &DragSet,
-    method: &str,
-    modes: usize,
+    (method, modes): (&str, usize),
+    progress: &dyn Fn(f32),
 ) -> Result<Choice, SolverError> {
     let mut still = setup.clone();
     still.scene.tracks.clear();
@@ -225,7 +226,7 @@ pub fn remedy(
     }
     [1, 2, 4].into_iter().for_each(|k| add("mwts-rs", k * modes));
     candidates.push(Candidate::new("ds-implicit", None));
-    choose_among(&still, accuracy, candidates, drags)
+    choose_among(&still, accuracy, candidates, drags, progress)
 }
 
 /// Measure every candidate's cost, then estimate them cheapest first under `drags` until one meets
@@ -236,6 +237,7 @@ fn choose_among(
     accuracy: f64,
     mut candidates: Vec<Candidate>,
     drags: &DragSet,
+    progress: &dyn Fn(f32),
 ) -> Result<Choice, SolverError> {
     let family = Family::of(setup);
     let mut first_failure = None;
@@ -244,7 +246,10 @@ fn choose_among(
         first_failure.get_or_insert(e);
     };
     let clock = Instant::now();
-    for c in &mut candidates {
+    // Costing takes the first tenth of the progress, judging (up to every candidate) the rest.
+    let n = candidates.len().max(1) as f32;
+    for (i, c) in candidates.iter_mut().enumerate() {
+        progress(0.1 * i as f32 / n);
         match cost(&c.apply(setup)) {
             Ok(x) => c.cost = x,
             Err(e) => fail(c, e),
@@ -254,9 +259,10 @@ fn choose_among(
     candidates.sort_by(|a, b| a.failure.is_some().cmp(&b.failure.is_some()).then(a.cost.total_cmp(&b.cost)));
     let mut chosen = None;
     for (i, c) in candidates.iter_mut().enumerate().filter(|(_, c)| c.failure.is_none()) {
+        let part = |f: f32| progress(0.1 + 0.9 * (i as f32 + f) / n);
         let estimate = match family {
-            Family::Cloth => cloth_estimate(setup, c),
-            Family::Shell => shell_estimate(setup, c, drags),
+            Family::Cloth => cloth_estimate(setup, c, &part),
+            Family::Shell => shell_estimate(setup, c, drags, &part),
         };
         match estimate {
             Ok(e) => c.estimate = e,
@@ -267,6 +273,7 @@ fn choose_among(
             break;
         }
     }
+    progress(1.0);
     let most_accurate = (0..candidates.len())
         .filter(|&i| candidates[i].estimate.is_finite())
         .min_by(|&a, &b| candidates[a].estimate.total_cmp(&candidates[b].estimate));
@@ -311,25 +318,32 @@ fn cost(setup: &Setup) -> Result<f64, SolverError> {
 }
 
 /// The relative error estimate of a shell candidate under `drags` (see the module doc).
-fn shell_estimate(setup: &Setup, c: &Candidate, drags: &DragSet) -> Result<f64, SolverError> {
+/// Settling takes the first half of the fraction reported to `progress`, the estimate the rest.
+fn shell_estimate(setup: &Setup, c: &Candidate, drags: &DragSet, progress: &dyn Fn(f32)) -> Result<f64, SolverError> {
     match c.method {
         "rigid" => return Ok(1.0),
         "ds-implicit" => return Ok(0.0),
         _ => {}
     }
-    let settled = settle(setup, c, drags)?;
-    quality::estimate(setup, settled.positions(), settled.drags())
+    let settled = settle(setup, c, drags, &|f| progress(0.5 * f))?;
+    quality::estimate_reporting(setup, settled.positions(), settled.drags(), &|f| progress(0.5 + 0.5 * f))
 }
 
 /// The candidate's equilibrium under the scene's loads, its tracks held at their start: shells run to
 /// rest under critical damping of their lowest mode (at most 40 time constants), cloth under its own
 /// damping (at most 20 s).
 pub fn at_rest(setup: &Setup, c: &Candidate) -> Result<Vec<DVec3>, SolverError> {
-    Ok(settle(setup, c, &DragSet::default())?.positions().to_vec())
+    Ok(settle(setup, c, &DragSet::default(), &|_| {})?.positions().to_vec())
 }
 
-/// [`at_rest`] under `drags` (those the candidate's method takes), returning the settled solver.
-fn settle(setup: &Setup, c: &Candidate, drags: &DragSet) -> Result<Box<dyn Solver>, SolverError> {
+/// [`at_rest`] under `drags` (those the candidate's method takes), returning the settled solver; the
+/// fraction of the longest settling time simulated goes to `progress` before each step.
+fn settle(
+    setup: &Setup,
+    c: &Candidate,
+    drags: &DragSet,
+    progress: &dyn Fn(f32),
+) -> Result<Box<dyn Solver>, SolverError> {
     let rest = setup.mesh.positions().to_vec();
     let mut s = c.apply(setup);
     let stop = match Family::of(setup) {
@@ -342,7 +356,10 @@ fn settle(setup: &Setup, c: &Candidate, drags: &DragSet) -> Result<Box<dyn Solve
         Family::Cloth => Stop { max_time: 20.0, max_steps: 20_000, rest: 1e-6 },
     };
     let mut solver = start(&s, drags)?;
-    let reached = run(solver.as_mut(), &rest, stop);
+    let reached = run_driven(solver.as_mut(), &rest, stop, &mut |_, t| {
+        progress((t / stop.max_time) as f32);
+        Ok(())
+    });
     match reached.outcome {
         super::run::Outcome::Diverged(e) => Err(e),
         _ => Ok(solver),
@@ -383,8 +400,8 @@ pub fn held(setup: &Setup) -> Setup {
 /// The relative error estimate of a cloth candidate: from its rest state, [`RELAX_STEPS`] backward
 /// Euler steps of 0.1 s with a tight PCG (nearly Newton steps on the static cloth equations, `M/h²`
 /// keeping them regular); the distance they travel, relative to the displacement they arrive at.
-fn cloth_estimate(setup: &Setup, c: &Candidate) -> Result<f64, SolverError> {
-    let mut solver = settle(setup, c, &DragSet::default())?;
+fn cloth_estimate(setup: &Setup, c: &Candidate, progress: &dyn Fn(f32)) -> Result<f64, SolverError> {
+    let mut solver = settle(setup, c, &DragSet::default(), progress)?;
     let x = solver.positions().to_vec();
     for (name, value) in [("step", 0.1), ("tolerance", 1e-8), ("iterations", 1e5)] {
         solver.set_param(name, value)?;
@@ -438,13 +455,52 @@ mod tests {
         let none = DragSet::default();
         let too_many = Candidate::new("mwts", Some(100_000));
         let choice =
-            choose_among(&setup, 0.5, vec![too_many.clone(), Candidate::new("ds-implicit", None)], &none).unwrap();
+            choose_among(&setup, 0.5, vec![too_many.clone(), Candidate::new("ds-implicit", None)], &none, &|_| {})
+                .unwrap();
         assert_eq!(choice.winner().method, "ds-implicit");
         let failed = choice.candidates.last().unwrap();
         assert!(failed.failure.as_deref().is_some_and(|f| f.contains("100000 modes")), "{failed:?}");
         assert!(choice.explain().iter().any(|l| l.starts_with("passed over, could not be run: mwts, 100000 modes")));
         // Nothing that can run: its failure is the error.
-        assert!(matches!(choose_among(&setup, 0.5, vec![too_many], &none), Err(SolverError::Unsuitable { .. })));
+        assert!(matches!(
+            choose_among(&setup, 0.5, vec![too_many], &none, &|_| {}),
+            Err(SolverError::Unsuitable { .. })
+        ));
+    }
+
+    #[test]
+    fn a_search_reports_its_progress_as_it_goes_and_stops_when_superseded() {
+        use std::cell::RefCell;
+
+        use crate::solver::supersede::{Generation, unless_superseded};
+
+        let setup = cantilever();
+        let none = DragSet::default();
+        let candidates = || vec![Candidate::new("mwts", Some(4)), Candidate::new("ds-implicit", None)];
+        // In full: fractions from 0 to 1, never back, many of them (each settling step reports).
+        let seen = RefCell::new(Vec::new());
+        let choice = choose_among(&setup, 1e-9, candidates(), &none, &|f| seen.borrow_mut().push(f)).unwrap();
+        assert_eq!(choice.winner().method, "ds-implicit");
+        let seen = seen.into_inner();
+        assert!(seen.len() > 20, "{} reports", seen.len());
+        assert!(seen.windows(2).all(|w| w[0] <= w[1]) && seen.iter().all(|f| (0.0..=1.0).contains(f)), "{seen:?}");
+        assert_eq!(seen.last(), Some(&1.0));
+        // Superseded at its fifth report (while it settles the first candidate): it stops there.
+        let generation = Generation::default();
+        let ticket = generation.next();
+        let reports = RefCell::new(0);
+        let stopped = unless_superseded(
+            &ticket,
+            &|_| {
+                *reports.borrow_mut() += 1;
+                if *reports.borrow() == 5 {
+                    generation.cancel_all();
+                }
+            },
+            |report| choose_among(&setup, 1e-9, candidates(), &none, report),
+        );
+        assert!(stopped.is_none());
+        assert_eq!(reports.into_inner(), 5, "no work reported after the stop");
     }
 
     #[test]

@@ -140,6 +140,7 @@ impl Solver for DsExplicit {
         let limit = 1e6 * self.model.energy_scale();
         let mut residual = 0.0;
         for s in 0..substeps {
+            super::supersede::checkpoint();
             self.model.blow(self.time + s as f64 * h, &self.x, &self.v);
             self.model.potential_gradient(&self.x, &mut g);
             if self.model.beta > 0.0 {

@@ -24,6 +24,7 @@ pub mod script;
 mod shell_model;
 mod stability;
 mod stats;
+pub mod supersede;
 pub mod wind;
 
 pub use drag::{Drag, DragId, DragKind, DragSet, FrameDrag};

@@ -150,6 +150,8 @@ impl ShellModel {
                 return Ok(report);
             }
             report.iterations += 1;
+            // Where a step that will be discarded (a reset, a switch) stops ([`super::supersede`]).
+            super::supersede::checkpoint();
             let d = self.direction(&o, y, &g, &mut mean_diag, &mut report.projected)?;
             // Backtracking (Armijo) line search. Near convergence Φ differences drown in round-off, so a
             // step that does not raise Φ beyond that and reduces |∇Φ| is accepted too.

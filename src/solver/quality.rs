@@ -39,12 +39,24 @@ pub const DEFAULT_TARGET: f64 = 0.05;
 /// The estimated relative displacement error of shape `x` of `setup` under `drags` (module
 /// documentation).
 pub fn estimate(setup: &Setup, x: &[DVec3], drags: &DragSet) -> Result<f64, SolverError> {
+    estimate_reporting(setup, x, drags, &|_| {})
+}
+
+/// [`estimate`], reporting the fraction of its iterations done to `progress` before each (where
+/// background work is stopped, [`super::supersede`]).
+pub fn estimate_reporting(
+    setup: &Setup,
+    x: &[DVec3],
+    drags: &DragSet,
+    progress: &dyn Fn(f32),
+) -> Result<f64, SolverError> {
     let mut model = ShellModel::new(setup)?;
     let mut corrected = x.to_vec();
     let mut still = vec![DVec3::ZERO; x.len()];
     model.apply_drags(drags, &mut corrected, &mut still)?;
     let one = NewtonSettings { max_iterations: 1, tolerance: 1e-10 };
     for k in 1..=MAX_ITERATIONS {
+        progress((k - 1) as f32 / MAX_ITERATIONS as f32);
         let before = corrected.clone();
         if model.minimize(&mut corrected, None, one)?.converged {
             break;

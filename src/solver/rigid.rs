@@ -2,9 +2,10 @@
 //! position drag. For static props and for driving the pipeline without physics.
 //!
 //! `faulty` is the same follower with a `fault` parameter: set to 1, its next step panics (as an
-//! index out of bounds in a real solver would). It exists to test that a panicking solver is caught,
-//! reported and recovered from by the simulation thread and the window, and is offered only when
-//! `SHELLWARP_TEST_METHODS` is set ([`super::registry::TEST_METHODS`]).
+//! index out of bounds in a real solver would); set to 2, its next step never returns (as an endless
+//! loop would). It exists to test that a panicking or hanging solver is caught, reported and recovered
+//! from by the simulation thread and the window, and is offered only when `SHELLWARP_TEST_METHODS` is
+//! set ([`super::registry::TEST_METHODS`]).
 
 use std::time::Instant;
 
@@ -25,7 +26,7 @@ pub const METHOD: Method = Method {
 /// Registry entry of the test method that panics on command.
 pub const FAULTY: Method = Method {
     name: "faulty",
-    summary: "test method: the rigid follower, whose next step panics once `fault` is set to 1",
+    summary: "test method: the rigid follower, whose next step panics (`fault` = 1) or hangs (2) on command",
     build: |setup| Ok(Box::new(Rigid::new(setup, true)?)),
     footprint: Footprint::PARTICLES,
 };
@@ -34,9 +35,9 @@ const FAULT: ParamSpec = ParamSpec {
     name: "fault",
     label: "fault",
     unit: "",
-    help: "1: the next step panics (a test of the simulation thread's recovery).",
+    help: "1: the next step panics; 2: the next step never returns (tests of the window's recovery).",
     min: 0.0,
-    max: 1.0,
+    max: 2.0,
     log_scale: false,
     integer: true,
 };
@@ -59,15 +60,15 @@ struct Rigid {
     drags: DragSet,
     step: f64,
     steps: u64,
-    /// `Some(armed)` for `faulty`: whether the next step panics.
-    fault: Option<bool>,
+    /// `Some(armed)` for `faulty`: 0, or the fault the next step has (1 panic, 2 hang).
+    fault: Option<u8>,
 }
 
 impl Rigid {
     fn new(setup: &Setup, faulty: bool) -> Result<Self, SolverError> {
         let step = PARAMS[0].check(setup.scene.solver.step.unwrap_or(1.0 / 30.0))?;
         let rest = setup.mesh.positions().to_vec();
-        let fault = faulty.then_some(false);
+        let fault = faulty.then_some(0);
         Ok(Self { positions: rest.clone(), drags: DragSet::new(rest.len(), false), rest, step, steps: 0, fault })
     }
 }
@@ -83,9 +84,13 @@ impl Solver for Rigid {
 
     fn step(&mut self) -> Result<StepStats, SolverError> {
         let start = Instant::now();
-        if self.fault == Some(true) {
-            self.fault = Some(false);
-            panic!("index out of bounds: the faulty test method's fault was set (step {})", self.steps + 1);
+        // A fault fires once.
+        match self.fault.as_mut().map(std::mem::take) {
+            Some(1) => panic!("index out of bounds: the faulty test method's fault was set (step {})", self.steps + 1),
+            Some(2) => loop {
+                std::thread::sleep(std::time::Duration::from_secs(1));
+            },
+            _ => {}
         }
         let offset = self
             .drags
@@ -116,14 +121,14 @@ impl Solver for Rigid {
     fn params(&self) -> Vec<ParamValue> {
         let step = ParamValue { spec: PARAMS[0], value: self.step };
         match self.fault {
-            Some(armed) => vec![step, ParamValue { spec: FAULT, value: f64::from(u8::from(armed)) }],
+            Some(armed) => vec![step, ParamValue { spec: FAULT, value: f64::from(armed) }],
             None => vec![step],
         }
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
         match self.fault {
-            Some(_) if name == FAULT.name => self.fault = Some(FAULT.check(value)? == 1.0),
+            Some(_) if name == FAULT.name => self.fault = Some(FAULT.check(value)? as u8),
             Some(_) => self.step = ParamSpec::find(FAULTY.name, &[PARAMS[0], FAULT], name)?.check(value)?,
             None => self.step = ParamSpec::find(METHOD.name, &PARAMS, name)?.check(value)?,
         }
@@ -168,7 +173,7 @@ mod tests {
         let setup = crate::scene::load("cantilever", &[]).unwrap();
         let mut s = (FAULTY.build)(&setup).unwrap();
         s.step().unwrap();
-        assert!(s.set_param("fault", 2.0).is_err());
+        assert!(s.set_param("fault", 3.0).is_err());
         s.set_param("fault", 1.0).unwrap();
         let panic = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| s.step())).unwrap_err();
         assert!(panic.downcast_ref::<String>().is_some_and(|m| m.contains("fault was set (step 2)")));

@@ -194,7 +194,15 @@ pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<Mod
         block: EIGEN_BLOCK,
         ..Default::default()
     };
-    let solve = |x: &mut [f64], b: usize| chol.solve_many(x, b).map_err(|e| e.to_string());
+    // Every block solve reports (a superseded background analysis stops there, not minutes later at
+    // the end of a long eigen solve): a fraction rising towards 0.9 as the solves accumulate.
+    let expected = (2 * wanted).div_ceil(EIGEN_BLOCK) as f32 + 10.0;
+    let mut block_solves = 0.0;
+    let solve = |x: &mut [f64], b: usize| {
+        progress(0.3 + 0.6 * block_solves / (block_solves + expected));
+        block_solves += 1.0;
+        chol.solve_many(x, b).map_err(|e| e.to_string())
+    };
     let pairs = lowest_modes(&mass, wanted, solve, relative_residual, options).map_err(numerical)?;
     progress(0.9);
     let residuals = &pairs.residuals;

@@ -4,7 +4,7 @@
 //! Stiffness, density and mode-count changes recompute the modes on a background thread; the step
 //! loop keeps running on the old basis meanwhile and swaps the new one in when it is ready, carrying
 //! the state over by projection. Analyses are cached on disk ([`super::cache`]). An edit made while
-//! an analysis runs supersedes it: the old run stops at its next stage ([`super::supersede`]), and a
+//! an analysis runs supersedes it: the old run stops at its next stage ([`crate::solver::supersede`]), and a
 //! new run starts after a short pause so a burst of edits costs one analysis.
 
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -20,11 +20,11 @@ use super::compute::{ModalAnalysis, ModalProblem, analyse};
 use super::dynamics::{ModalDynamics, ModalParams, Shape};
 use super::ritz::{self, StaticResponse};
 use super::rotation_strain::RotationStrain;
-use super::supersede::{Generation, unless_superseded};
 use crate::energy::ShellStiffness;
 use crate::mesh::TriMesh;
 use crate::scene::Setup;
 use crate::solver::registry::{Footprint, Method};
+use crate::solver::supersede::{Generation, unless_superseded};
 use crate::solver::wind::{self, Wind};
 use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
 
@@ -338,7 +338,8 @@ impl ModalSolver {
         let progress = Arc::new(AtomicU32::new(0));
         let (request, p) = (self.request.clone(), progress.clone());
         let ticket = self.generation.next();
-        std::thread::spawn(move || {
+        // If the thread cannot start, `tx` goes with it and the next poll reports the analysis stopped.
+        let _ = std::thread::Builder::new().name("shellwarp-modes".into()).spawn(move || {
             std::thread::sleep(SETTLE);
             let report = move |f: f32| p.store(f.to_bits(), Ordering::Relaxed);
             if let Some(result) = unless_superseded(&ticket, &report, |report| request.run(report)) {

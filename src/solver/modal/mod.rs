@@ -12,5 +12,4 @@ pub mod ritz;
 pub mod rotation;
 pub mod rotation_strain;
 pub mod rs_pass;
-pub mod supersede;
 pub mod warp;

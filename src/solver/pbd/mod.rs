@@ -534,6 +534,7 @@ impl Solver for Pbd {
         self.update_masses();
         let h = self.step / self.substeps as f64;
         for k in 1..=self.substeps {
+            crate::solver::supersede::checkpoint();
             self.substep(h, self.time + h * k as f64);
         }
         self.time += self.step;

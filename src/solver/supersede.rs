@@ -1,11 +1,19 @@
-//! Abandoning background analyses that a newer request has made pointless.
+//! Abandoning background work that a newer request, or its owner going away, has made pointless.
 //!
-//! Every parameter edit of a modal solver starts a new analysis; only the latest one matters. Each
+//! Every parameter edit of a modal solver starts a new analysis, and only the latest one matters; a
+//! quality readout's judgement (a few Newton iterations of the full shell, or a search for a remedy
+//! that builds and settles several models) is pointless once the viewer has switched scene. Each
 //! request takes a number from a shared [`Generation`] counter; a run whose number is no longer the
-//! latest stops before it starts and at every progress report of the analysis (the analysis has no
-//! other exit between its stages, so the stop unwinds out of it with a private payload that
-//! [`unless_superseded`] catches; every other panic passes through untouched).
+//! latest stops before it starts and at every progress report of the work (the work has no other
+//! exit between its stages, so the stop unwinds out of it with a private payload that
+//! [`unless_superseded`] catches; every other panic passes through untouched). Work that reports
+//! no progress — a solver's step, whose Newton iterations may run for minutes at a user's setting —
+//! can still be stopped: while a run is under way its ticket is the thread's, and [`checkpoint`]
+//! (called once per Newton iteration, explicit substep and position-based substep) stops it there
+//! the same way. The simulation thread runs each
+//! step so, and the window supersedes a step whose result a reset or a switch would discard.
 
+use std::cell::RefCell;
 use std::panic::{AssertUnwindSafe, catch_unwind, resume_unwind};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -61,10 +69,26 @@ pub fn unless_superseded<T>(
         }
         progress(fraction);
     };
-    match catch_unwind(AssertUnwindSafe(|| work(&report))) {
+    let outer = CURRENT.with(|c| c.replace(Some(ticket.clone())));
+    let outcome = catch_unwind(AssertUnwindSafe(|| work(&report)));
+    CURRENT.with(|c| *c.borrow_mut() = outer);
+    match outcome {
         Ok(result) => Some(result),
         Err(payload) if payload.is::<Superseded>() => None,
         Err(payload) => resume_unwind(payload),
+    }
+}
+
+thread_local! {
+    /// The ticket of the run under way on this thread, if any.
+    static CURRENT: RefCell<Option<Ticket>> = const { RefCell::new(None) };
+}
+
+/// Stop the run under way on this thread here if its ticket has been superseded (outside
+/// [`unless_superseded`], nothing happens).
+pub fn checkpoint() {
+    if CURRENT.with(|c| c.borrow().as_ref().is_some_and(|t| !t.is_current())) {
+        resume_unwind(Box::new(Superseded));
     }
 }
 
@@ -73,6 +97,25 @@ mod tests {
     use std::cell::Cell;
 
     use super::*;
+
+    #[test]
+    fn a_checkpoint_stops_a_superseded_run_and_does_nothing_outside_one() {
+        checkpoint(); // no run under way
+        let generation = Generation::default();
+        let ticket = generation.next();
+        let passed = Cell::new(0);
+        let result = unless_superseded(&ticket, &|_| {}, |_| {
+            for i in 0..10 {
+                checkpoint();
+                passed.set(passed.get() + 1);
+                if i == 3 {
+                    generation.cancel_all();
+                }
+            }
+        });
+        assert_eq!((result, passed.get()), (None, 4));
+        checkpoint(); // the thread's ticket went with the run
+    }
 
     #[test]
     fn a_current_run_completes_and_forwards_progress() {
