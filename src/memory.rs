@@ -9,6 +9,12 @@
 //! The budget is the machine's physical memory (`MemTotal` in `/proc/meminfo`), or
 //! `SHELLWARP_MEMORY` bytes when that is set (tests use it to reach the refusal cheaply), or what
 //! [`limit_to`] set.
+//!
+//! Memory freed is not always memory given back: glibc keeps what a thread frees in that thread's
+//! arena for reuse, and a long session that builds and drops solvers on several threads (loads,
+//! background analyses, the quality readout) creeps upward by what the arenas hold. [`release_freed`]
+//! hands the free pages of every arena back to the system; the simulation thread calls it when it
+//! drops a solver (a scene or method switch).
 
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -57,6 +63,22 @@ pub fn budget() -> u64 {
 pub fn resident_bytes() -> u64 {
     let statm = std::fs::read_to_string("/proc/self/statm").unwrap_or_default();
     statm.split_whitespace().nth(1).and_then(|p| p.parse::<u64>().ok()).unwrap_or(0) * 4096
+}
+
+/// The least memory any method needs a vertex of its mesh (the particle methods' footprint): what a
+/// generated mesh is checked against before it is generated.
+pub const LEAST_PER_VERTEX: u64 = 4_000;
+
+/// Give the free pages the allocator holds back to the system (glibc's `malloc_trim`; nothing
+/// elsewhere). Costs a walk over the heaps: for switches, not for every step.
+#[allow(unsafe_code)]
+pub fn release_freed() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: `malloc_trim` takes no pointers, only releases pages glibc's heaps hold free, and locks
+    // each arena it walks: safe to call from any thread at any time.
+    unsafe {
+        libc::malloc_trim(0);
+    }
 }
 
 /// Refuse `needed` bytes of `what` if they exceed the [`budget`]; `what` is only formatted when refused.

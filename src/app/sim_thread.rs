@@ -429,6 +429,8 @@ impl SimLoop {
                 self.solver = solver;
                 self.ghost = None;
                 self.readout = None;
+                // What the old solver, its loads and analyses freed goes back to the system.
+                crate::memory::release_freed();
                 self.restart();
                 Ok(())
             }

@@ -84,6 +84,13 @@ impl Setup {
 }
 
 fn make_mesh(source: &MeshSource, origin: &Origin) -> Result<TriMesh, MeshError> {
+    // A sphere's or a creature's vertex count follows from its frequency: one no method could run
+    // in this machine's memory is refused before seconds are spent generating it.
+    if let MeshSource::Icosphere { frequency, .. } | MeshSource::Creature { frequency, .. } = *source {
+        let vertices = frequency.saturating_mul(frequency).saturating_mul(10).saturating_add(2);
+        let needed = crate::memory::times(vertices, crate::memory::LEAST_PER_VERTEX);
+        crate::memory::check(needed, || format!("a mesh of frequency {frequency} ({vertices} vertices)"))?;
+    }
     match *source {
         MeshSource::Grid { size, segments } => generate::grid(size, segments),
         MeshSource::VBeam { length, width, angle_deg, segments } => {

@@ -34,7 +34,7 @@ impl Footprint {
     /// A method that keeps modes besides the factor.
     pub const MODAL: Self = Self { per_vertex: 24_000, per_vertex_mode: 240 };
     /// A particle method: sparse products, colours and contact lists.
-    pub const PARTICLES: Self = Self { per_vertex: 4_000, per_vertex_mode: 0 };
+    pub const PARTICLES: Self = Self { per_vertex: crate::memory::LEAST_PER_VERTEX, per_vertex_mode: 0 };
 }
 
 impl Method {
