@@ -24,9 +24,12 @@ fn cantilever(method: &str, modes: usize) -> Setup {
 /// Run `setup` in the simulation thread with the tip dragged to `target` and the readout watching,
 /// until `done` holds for the readout of a state past ten seconds (or 60 s pass); that snapshot.
 fn watched(setup: &Setup, target: DVec3, done: impl Fn(&ReadoutView) -> bool) -> Snapshot {
-    let mut sim = SimHandle::spawn(solver::build(setup).unwrap(), false, Pacing::AsFastAsPossible);
+    // Paused until the drag and the watch are in, so that every step counted is taken under the drag
+    // (a test thread descheduled between sends must not let the shell run free for hundreds of steps).
+    let mut sim = SimHandle::spawn(solver::build(setup).unwrap(), true, Pacing::AsFastAsPossible);
     sim.send(Command::Watch(Some(Box::new(setup.clone()))));
     sim.send(Command::AddDrag(DragId(1), Drag { vertex: TIP, kind: DragKind::Position(target) }));
+    sim.send(Command::SetPaused(false));
     let start = Instant::now();
     loop {
         let snap = sim.latest().clone();
