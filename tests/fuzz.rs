@@ -419,11 +419,21 @@ fn campaign(first: u64, cases: u64, log: bool) -> (Vec<(u64, Outcome)>, [usize; 
     (bad, counts, start.elapsed())
 }
 
+/// One fuzz test at a time: each is CPU-bound on a 2-core machine, and the cases' time bounds
+/// assume a core to themselves.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// Hold the machine for one fuzz test (a failed test's poison is ignored).
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Resident memory past which a campaign stops and names its case: a third of this machine's 24 GB.
 const MEMORY_LIMIT: u64 = 8_000_000_000;
 
 #[test]
 fn mutated_scenes_end_in_a_clean_error_or_finite_steps() {
+    let _machine = serial();
     let (bad, [ran, refused], took) = campaign(0, 2000, false);
     eprintln!("2000 cases in {took:.1?}: {ran} ran, {refused} refused, {} bad", bad.len());
     assert!(bad.is_empty(), "{bad:?}");
@@ -436,6 +446,7 @@ fn mutated_scenes_end_in_a_clean_error_or_finite_steps() {
 /// strip starts half in the ground (6 s a step, crumpled).
 #[test]
 fn the_cases_the_long_runs_caught_are_refused_in_time() {
+    let _machine = serial();
     shellwarp::memory::limit_to(2_000_000_000);
     for seed in [1_070_544, 1_004_464, 1_050_834] {
         let start = Instant::now();
@@ -447,6 +458,7 @@ fn the_cases_the_long_runs_caught_are_refused_in_time() {
 #[test]
 #[ignore]
 fn a_long_fuzz_run() {
+    let _machine = serial();
     let cases = std::env::var("SHELLWARP_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(100_000);
     let first = std::env::var("SHELLWARP_FUZZ_FIRST").ok().and_then(|v| v.parse().ok()).unwrap_or(1_000_000);
     let (bad, [ran, refused], took) = campaign(first, cases, true);

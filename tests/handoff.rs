@@ -146,8 +146,15 @@ fn sim_keeps_real_time_while_the_reader_is_slow() {
     let wall = start.elapsed().as_secs_f64();
     let snap = sim.latest();
     let sim_time = snap.steps as f64 * h;
-    assert!((sim_time - wall).abs() < 0.2 * wall, "sim {sim_time:.3} s vs wall {wall:.3} s");
-    assert!((snap.wall_time - wall).abs() < 0.2 * wall, "reported wall time {}", snap.wall_time);
+    // A simulation blocked by the reader manages a few steps per read (about 0.05 s of 1 s); one that
+    // ignored real time races ahead. A stall of the simulation thread past the 0.25 s backlog is
+    // dropped rather than caught up, so a busy machine may leave it somewhat behind, never ahead.
+    assert!(sim_time > 0.5 * wall && sim_time <= wall + 0.25 + h, "sim {sim_time:.3} s vs wall {wall:.3} s");
+    assert!(
+        snap.wall_time > 0.5 * wall && snap.wall_time <= wall + 0.05,
+        "reported wall time {} of {wall}",
+        snap.wall_time
+    );
 }
 
 #[test]
@@ -182,7 +189,7 @@ fn fast_then_real_time_keeps_real_time() {
     let expected = wall / h;
     // Frozen (the old bug) gives 0; still racing gives thousands. Catch-up after a preemption is
     // bounded by the 0.25 s backlog.
-    assert!(steps as f64 > 0.4 * expected, "{steps} steps in {wall:.3} s of real time (expected {expected:.0})");
+    assert!(steps as f64 > 0.1 * expected, "{steps} steps in {wall:.3} s of real time (expected {expected:.0})");
     assert!((steps as f64) < expected + 0.25 / h + 5.0, "{steps} steps in {wall:.3} s: not back to real time");
 }
 
@@ -230,9 +237,10 @@ fn commands_pause_step_reset_and_report_errors() {
     assert!(wait_for(&mut sim, |s| s.last_error.as_deref().is_some_and(|e| e.contains("nope"))));
     sim.send(Command::SetPaused(false));
     assert!(wait_for(&mut sim, |s| s.steps > 50));
-    sim.send(Command::Reset);
+    // Paused first: a thread running flat out between the two sends would be past 50 steps again.
     sim.send(Command::SetPaused(true));
-    assert!(wait_for(&mut sim, |s| s.status == SimStatus::Paused && s.steps < 50));
+    sim.send(Command::Reset);
+    assert!(wait_for(&mut sim, |s| s.status == SimStatus::Paused && s.steps == 0));
 }
 
 /// A solver that panics inside the simulation thread is reported with its message, the thread keeps
@@ -276,13 +284,14 @@ fn a_hanging_solver_is_seen_stuck_and_is_left_behind_without_waiting() {
     // (Marked in whole milliseconds.)
     assert!(sim.stuck_for().unwrap() <= start.elapsed() + Duration::from_millis(1), "stuck no longer than it ran");
     // Abandoned for a new thread: returns at once, and the new thread runs.
-    let abandoned = Instant::now();
-    std::mem::replace(
+    let old = std::mem::replace(
         &mut sim,
         SimHandle::spawn(Counter::boxed(20, 0.01, Duration::ZERO), false, Pacing::AsFastAsPossible),
-    )
-    .abandon();
-    assert!(abandoned.elapsed() < Duration::from_millis(100));
+    );
+    let abandoned = Instant::now();
+    old.abandon();
+    // A wait would last QUIT_WAIT (2 s) or for ever; a busy machine may delay the return a little.
+    assert!(abandoned.elapsed() < Duration::from_secs(1), "abandoning waited {:?}", abandoned.elapsed());
     assert!(wait_for(&mut sim, |s| s.status == SimStatus::Running && s.steps > 20), "the new thread did not run");
     assert!(sim.stuck_for().is_none_or(|d| d < Duration::from_secs(1)));
     // Dropping a handle whose thread is stuck waits at most QUIT_WAIT.

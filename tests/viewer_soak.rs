@@ -11,8 +11,13 @@ use std::process::Command;
 
 use shellwarp::app::soak::SoakReport;
 
+/// One soak at a time: each runs a software-rendered window flat out on a 2-core machine, and the
+/// frame-time bounds assume it has the machine to itself.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// Run the viewer for `seconds` with the soak's extra arguments; its report.
 fn soak(name: &str, seconds: u32, extra: &[&str]) -> SoakReport {
+    let _machine = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::Builder::new().prefix(&format!("shellwarp-soak-{name}-")).tempdir().unwrap();
     let report = dir.path().join("report.json");
     let out = Command::new("xvfb-run")
@@ -34,8 +39,8 @@ fn soak(name: &str, seconds: u32, extra: &[&str]) -> SoakReport {
 
 /// What every soak must show: it ran its time, drew frames, none non-finite, no frame stuck.
 fn healthy(r: &SoakReport, seconds: f64) {
-    // The last frame recorded starts before the time is up.
-    assert!(r.seconds >= seconds - 1.0, "ran {} s", r.seconds);
+    // The last frame recorded starts before the time is up (within the longest frame allowed below).
+    assert!(r.seconds >= seconds - 2.0, "ran {} s", r.seconds);
     assert!(r.frames as f64 > 2.0 * seconds, "{} frames in {} s", r.frames, r.seconds);
     assert_eq!(r.non_finite_frames, 0, "frames drew a non-finite position");
     for (minute, [median, p99, _]) in r.frame_ms_by_minute.iter().enumerate() {
@@ -45,7 +50,8 @@ fn healthy(r: &SoakReport, seconds: f64) {
 
 #[test]
 fn a_panicking_or_hanging_solver_in_the_real_window_is_shown_and_recovered() {
-    let r = soak("faulty", 25, &["-m", "faulty", "--soak-methods", "faulty,rigid", "--soak-seed", "3"]);
+    // `faulty` alone: a switch to a method that cannot fault would end the test's faults by chance.
+    let r = soak("faulty", 25, &["-m", "faulty", "--soak-methods", "faulty", "--soak-seed", "3"]);
     healthy(&r, 25.0);
     assert!(r.events.get("fault").copied().unwrap_or(0) >= 1, "the script set the fault: {:?}", r.events);
     assert!(!r.panics.is_empty(), "a panic was shown");
