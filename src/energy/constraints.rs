@@ -1,4 +1,5 @@
-//! Constraint functions `C(p)` and their exact gradients `∇C`, for position-based dynamics (SPEC §5):
+//! Constraint functions `C(p)` and their exact gradients `∇C`, for position-based dynamics (Müller et al. 2007;
+//! XPBD: Macklin, Müller & Chentanez 2016):
 //! edge length, dihedral bending (the shell's signed atan2 hinge angle, smooth through flat, rest
 //! angle wrapped), the enclosed volume of a closed mesh, and the signed distance of a point from a
 //! triangle's plane (self-collision). Every gradient is checked against central finite differences.

@@ -1,7 +1,7 @@
 //! Pure functions of positions: values, gradients and Hessians of the elastic energies.
 //!
 //! Nothing here keeps simulation state; everything is checked against central finite differences.
-//! The discrete shell energy of SPEC §1 (Grinspun et al. 2003) lives in [`shell`], built from the
+//! The discrete shell energy (Grinspun et al. 2003) lives in [`shell`], built from the
 //! per-element terms in [`stretch`] (edge length, triangle area) and [`hinge`] (dihedral angle).
 //! The cloth's particle springs (Choi & Ko's stretch and buckling springs) are in [`springs`].
 

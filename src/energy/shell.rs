@@ -1,4 +1,4 @@
-//! The discrete shell energy `W = k_A E_A + k_L E_L + k_B E_B` (SPEC §1, Grinspun et al. 2003) on any
+//! The discrete shell energy `W = k_A E_A + k_L E_L + k_B E_B` (Grinspun, Hirani, Desbrun & Schröder 2003, "Discrete shells") on any
 //! triangle mesh, as a pure function of the current positions.
 //!
 //! - `E_A = Σ_t (1 − A_t/Ā_t)² Ā_t` over triangles,

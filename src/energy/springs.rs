@@ -297,7 +297,7 @@ mod tests {
     #[test]
     fn buckling_curve_has_the_specified_values() {
         let c = BucklingCurve::get();
-        // SPEC §4: F(1⁻) = 12, F(0.9) ≈ 12.8, F(0.5) ≈ 17.5, F(0.1) ≈ 30.7; F(0) = 4π².
+        // Choi & Ko 2002, the buckling curve: F(1⁻) = 12, F(0.9) ≈ 12.8, F(0.5) ≈ 17.5, F(0.1) ≈ 30.7; F(0) = 4π².
         for (u, want, tol) in
             [(1.0, 12.0, 1e-9), (0.9, 12.8, 0.01), (0.5, 17.5, 0.01), (0.1, 30.7, 0.01), (0.0, 39.478_417_6, 1e-8)]
         {

@@ -43,7 +43,6 @@ const FRAME: ParamSpec = ParamSpec {
     help: "Time one step advances, in substeps.",
     min: 1e-6,
     max: 1.0,
-    log_scale: true,
     integer: false,
 };
 
@@ -54,7 +53,6 @@ const SUBSTEP: ParamSpec = ParamSpec {
     help: "Symplectic Euler step, used as given; 0 = automatic (1/30000 s, or 0.8 × the stable limit if smaller).",
     min: 0.0,
     max: 1.0,
-    log_scale: true,
     integer: false,
 };
 

@@ -29,7 +29,6 @@ pub(crate) const NEWTON_PARAMS: [ParamSpec; 3] = [
         help: "Backward Euler step.",
         min: 1e-6,
         max: 1.0,
-        log_scale: true,
         integer: false,
     },
     ParamSpec {
@@ -39,7 +38,6 @@ pub(crate) const NEWTON_PARAMS: [ParamSpec; 3] = [
         help: "Cap on Newton iterations per step.",
         min: 1.0,
         max: 1000.0,
-        log_scale: false,
         integer: true,
     },
     ParamSpec {
@@ -49,7 +47,6 @@ pub(crate) const NEWTON_PARAMS: [ParamSpec; 3] = [
         help: "Relative residual at which Newton stops.",
         min: 1e-14,
         max: 1.0,
-        log_scale: true,
         integer: false,
     },
 ];

@@ -17,15 +17,12 @@ pub struct ParamSpec {
     pub min: f64,
     /// Largest allowed value (inclusive).
     pub max: f64,
-    /// Whether a slider should be logarithmic.
-    pub log_scale: bool,
     /// Whether only whole numbers are allowed (mode counts, iterations).
     pub integer: bool,
 }
 
 impl ParamSpec {
-    /// A real parameter in `[min, max]` on a linear slider (set `log_scale` or `integer` with struct
-    /// update syntax).
+    /// A real parameter in `[min, max]` (set `integer` with struct update syntax).
     pub const fn linear(
         name: &'static str,
         label: &'static str,
@@ -34,7 +31,7 @@ impl ParamSpec {
         min: f64,
         max: f64,
     ) -> Self {
-        Self { name, label, unit, help, min, max, log_scale: false, integer: false }
+        Self { name, label, unit, help, min, max, integer: false }
     }
 
     /// Check a candidate value: finite, within `[min, max]`, whole if `integer`.
@@ -75,16 +72,8 @@ pub struct ParamValue {
 mod tests {
     use super::*;
 
-    const K: ParamSpec = ParamSpec {
-        name: "k",
-        label: "stiffness",
-        unit: "N/m",
-        help: "",
-        min: 0.0,
-        max: 10.0,
-        log_scale: false,
-        integer: false,
-    };
+    const K: ParamSpec =
+        ParamSpec { name: "k", label: "stiffness", unit: "N/m", help: "", min: 0.0, max: 10.0, integer: false };
 
     #[test]
     fn check_refuses_nan_negative_and_fractional_integers() {

@@ -38,7 +38,6 @@ const FAULT: ParamSpec = ParamSpec {
     help: "1: the next step panics; 2: the next step never returns (tests of the window's recovery).",
     min: 0.0,
     max: 2.0,
-    log_scale: false,
     integer: true,
 };
 
@@ -49,7 +48,6 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
     help: "Fixed time step of the rigid follower.",
     min: 1e-6,
     max: 1.0,
-    log_scale: true,
     integer: false,
 }];
 

@@ -19,7 +19,7 @@ use crate::mesh::TriMesh;
 use crate::scene::Setup;
 
 const fn spec(name: &'static str, label: &'static str, unit: &'static str, help: &'static str) -> ParamSpec {
-    ParamSpec { name, label, unit, help, min: 0.0, max: 1e12, log_scale: true, integer: false }
+    ParamSpec { name, label, unit, help, min: 0.0, max: 1e12, integer: false }
 }
 
 /// Parameters every DS method has, in this order.
@@ -31,7 +31,6 @@ pub(crate) const SHELL_PARAMS: [ParamSpec; 7] = [
     ParamSpec {
         min: -1e4,
         max: 1e4,
-        log_scale: false,
         ..spec("gravity_y", "gravity y", "m/s²", "Vertical gravity component (x and z come from the scene).")
     },
     ParamSpec { max: 1e4, ..spec("rayleigh_alpha", "mass damping α", "1/s", "Rayleigh damping C = αM + βK₀.") },

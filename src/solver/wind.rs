@@ -14,7 +14,7 @@ use crate::scene::WindSpec;
 use crate::solver::{ParamSpec, ParamValue, SolverError};
 
 const fn spec(name: &'static str, label: &'static str, unit: &'static str, help: &'static str) -> ParamSpec {
-    ParamSpec { name, label, unit, help, min: -100.0, max: 100.0, log_scale: false, integer: false }
+    ParamSpec { name, label, unit, help, min: -100.0, max: 100.0, integer: false }
 }
 
 /// The wind's parameters, the same in every method's panel: the mean air velocity and the gusts.

@@ -42,7 +42,7 @@ pub enum Variant {
 }
 
 const fn spec(name: &'static str, label: &'static str, unit: &'static str, help: &'static str, max: f64) -> ParamSpec {
-    ParamSpec { name, label, unit, help, min: 0.0, max, log_scale: true, integer: false }
+    ParamSpec { name, label, unit, help, min: 0.0, max, integer: false }
 }
 
 /// The parameters of both cloth methods, in panel order.
@@ -64,11 +64,9 @@ const PARAMS: [ParamSpec; 12] = [
     ),
     spec("k_d", "spring damping k_d", "N·s/m", "Damping of the relative velocity of every connected pair.", 1e3),
     ParamSpec {
-        log_scale: false,
         ..spec("mu_s", "static friction μ_s", "", "A contact sticks while tangential force ≤ μ_s × normal force.", 10.0)
     },
     ParamSpec {
-        log_scale: false,
         ..spec(
             "mu_k",
             "kinetic friction μ_k",
@@ -80,13 +78,11 @@ const PARAMS: [ParamSpec; 12] = [
     ParamSpec { min: 1e-6, ..spec("density", "density", "kg/m²", "Surface density; lumped to particles.", 1e4) },
     ParamSpec {
         min: -1e3,
-        log_scale: false,
         ..spec("gravity_y", "gravity y", "m/s²", "Vertical gravity (x and z from the scene).", 1e3)
     },
     ParamSpec { min: 1e-5, ..spec("step", "time step", "s", "Backward Euler step (the paper: 0.01 s).", 0.1) },
     ParamSpec {
         min: 1.0,
-        log_scale: false,
         integer: true,
         ..spec("iterations", "PCG iterations", "", "Cap on PCG iterations per step.", 1e5)
     },

@@ -1,4 +1,4 @@
-//! Implicit particle cloth (SPEC §4): Noh & Jung's particle system on triangle meshes after Choi &
+//! Implicit particle cloth: Noh & Jung's particle system on triangle meshes after Choi &
 //! Ko's "Stable but responsive cloth", and Choi & Ko's quad-grid original for comparison.
 //!
 //! - [`graph`]: neighbours (edge and diagonal), valence weights, masses;

@@ -86,21 +86,11 @@ impl Variant {
 
 const PARAMS: [ParamSpec; 10] = [
     ParamSpec {
-        log_scale: true,
         ..ParamSpec::linear("k_area", "k_A (area)", "N/m", "Area (stretch) stiffness of the shell.", 0.0, 1e9)
     },
-    ParamSpec {
-        log_scale: true,
-        ..ParamSpec::linear("k_length", "k_L (length)", "N/m", "Edge-length (shear) stiffness.", 0.0, 1e9)
-    },
-    ParamSpec {
-        log_scale: true,
-        ..ParamSpec::linear("k_bend", "k_B (bending)", "N·m", "Bending (hinge) stiffness.", 1e-9, 1e6)
-    },
-    ParamSpec {
-        log_scale: true,
-        ..ParamSpec::linear("density", "density", "kg/m²", "Surface density (lumped mass).", 1e-6, 1e4)
-    },
+    ParamSpec { ..ParamSpec::linear("k_length", "k_L (length)", "N/m", "Edge-length (shear) stiffness.", 0.0, 1e9) },
+    ParamSpec { ..ParamSpec::linear("k_bend", "k_B (bending)", "N·m", "Bending (hinge) stiffness.", 1e-9, 1e6) },
+    ParamSpec { ..ParamSpec::linear("density", "density", "kg/m²", "Surface density (lumped mass).", 1e-6, 1e4) },
     ParamSpec::linear(
         "gravity",
         "gravity y",
@@ -124,7 +114,6 @@ const PARAMS: [ParamSpec; 10] = [
     },
     ParamSpec::linear("step", "time step", "s", "Fixed step of the modal integrator.", 1e-5, 0.1),
     ParamSpec {
-        log_scale: true,
         ..ParamSpec::linear(
             "constraint_damping",
             "drag damping",

@@ -20,7 +20,6 @@ const COMMON: [ParamSpec; 10] = [
         )
     },
     ParamSpec {
-        log_scale: true,
         ..ParamSpec::linear("density", "density", "kg/m²", "Surface density; lumped to particles.", 1e-6, 1e4)
     },
     ParamSpec::linear("gravity_y", "gravity y", "m/s²", "Vertical gravity (x and z from the scene).", -1e3, 1e3),
@@ -49,7 +48,6 @@ const COMMON: [ParamSpec; 10] = [
         10.0,
     ),
     ParamSpec {
-        log_scale: true,
         ..ParamSpec::linear(
             "thickness",
             "thickness",
@@ -111,11 +109,9 @@ const XPBD_PARAMS: [ParamSpec; 4] = [
         )
     },
     ParamSpec {
-        log_scale: true,
         ..ParamSpec::linear("k_s", "stretch stiffness k_s", "N/m", "Edge stiffness: compliance 1/k_s.", 1e-6, 1e9)
     },
     ParamSpec {
-        log_scale: true,
         ..ParamSpec::linear("k_b", "bending rigidity k_b", "N·m", "Hinge stiffness k_b × 6|e|²/(A₁ + A₂).", 0.0, 1e3)
     },
     ParamSpec::linear(

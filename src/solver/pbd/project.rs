@@ -1,6 +1,7 @@
 //! One Gauss–Seidel sweep over the cloth's own constraints — stretch per edge, bending per hinge, the
 //! balloon's volume — by the rule of the method: PBD's `Δλ = −k' C / Σ w|∇C|²` or XPBD's
-//! `Δλ = (−C − α̃λ)/(Σ w|∇C|² + α̃)`, then `Δp_i = w_i ∇_i C Δλ` (SPEC §5).
+//! `Δλ = (−C − α̃λ)/(Σ w|∇C|² + α̃)`, then `Δp_i = w_i ∇_i C Δλ` (Müller et al. 2007;
+//! Macklin, Müller & Chentanez 2016).
 //!
 //! With bending, the boundary edges go first, then each interior edge together with its hinge, in one
 //! lane: the stretch is projected, then the bending at the stretched positions (Gauss–Seidel within
