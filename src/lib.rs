@@ -15,3 +15,4 @@ pub mod mesh;
 pub mod render;
 pub mod scene;
 pub mod solver;
+pub mod threads;

@@ -1,5 +1,6 @@
 //! The README cannot rot: its example scene parses and loads, and its command synopsis lists exactly
-//! the options each subcommand's `--help` has.
+//! the options each subcommand's `--help` has (the options of the bare `shellwarp` line go with
+//! every subcommand).
 
 use std::collections::BTreeSet;
 use std::path::PathBuf;
@@ -32,6 +33,19 @@ fn readme_example_scene_parses_and_loads() {
     assert_eq!(setup.anchors.len(), 2 * 5);
 }
 
+/// The options every subcommand takes: those of the synopsis's bare `shellwarp` line, which the
+/// program's own `--help` lists too.
+fn global_options(synopsis: &str) -> BTreeSet<String> {
+    let line =
+        synopsis.lines().find(|l| l.starts_with("shellwarp ") && l[10..].trim_start().starts_with('[')).unwrap_or("");
+    let globals = long_options(line.split("   ").next().unwrap_or(""));
+    let help = Command::new(env!("CARGO_BIN_EXE_shellwarp")).arg("--help").output().unwrap();
+    let help = String::from_utf8_lossy(&help.stdout);
+    let options: String = help.lines().filter(|l| l.trim_start().starts_with('-')).collect::<Vec<_>>().join("\n");
+    assert_eq!(globals, long_options(&options), "README's bare `shellwarp` line vs `shellwarp --help`");
+    globals
+}
+
 /// Every `--long` option in `text`, except `--help` and `--version`.
 fn long_options(text: &str) -> BTreeSet<String> {
     text.split(|c: char| !(c.is_ascii_alphanumeric() || c == '-'))
@@ -43,6 +57,7 @@ fn long_options(text: &str) -> BTreeSet<String> {
 #[test]
 fn readme_synopsis_matches_every_subcommands_help() {
     let synopsis = block(&readme(), "## Command line", "text");
+    let globals = global_options(&synopsis);
     for sub in ["view", "scenes", "render", "sim", "modes"] {
         // The subcommand's line and its indented continuation lines, without the descriptions at the right.
         let mut lines = synopsis.lines().skip_while(|l| !l.starts_with(&format!("shellwarp {sub} ")));
@@ -55,7 +70,8 @@ fn readme_synopsis_matches_every_subcommands_help() {
         let help = String::from_utf8_lossy(&help.stdout);
         // Options are the help lines that start with `-`.
         let options: String = help.lines().filter(|l| l.trim_start().starts_with('-')).collect::<Vec<_>>().join("\n");
-        assert_eq!(long_options(&usage), long_options(&options), "README synopsis of `{sub}` vs its --help");
+        let usage: BTreeSet<String> = long_options(&usage).union(&globals).cloned().collect();
+        assert_eq!(usage, long_options(&options), "README synopsis of `{sub}` vs its --help");
     }
 }
 
@@ -68,5 +84,6 @@ fn readme_synopsis_of_eval_lists_its_options() {
     let help = Command::new(env!("CARGO_BIN_EXE_shellwarp")).args(["eval", "--help"]).output().unwrap();
     let help = String::from_utf8_lossy(&help.stdout);
     let options: String = help.lines().filter(|l| l.trim_start().starts_with('-')).collect::<Vec<_>>().join("\n");
-    assert_eq!(long_options(&usage), long_options(&options), "README synopsis of `eval` vs its --help");
+    let usage: BTreeSet<String> = long_options(&usage).union(&global_options(&synopsis)).cloned().collect();
+    assert_eq!(usage, long_options(&options), "README synopsis of `eval` vs its --help");
 }

@@ -18,6 +18,10 @@ pub struct Cli {
     /// What to do; without one, the viewer opens on the default scene.
     #[command(subcommand)]
     command: Option<Command>,
+    /// Threads for the numerical work (factorisations, solves, the modal analysis); default
+    /// `SHELLWARP_THREADS`, else every core.
+    #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
 }
 
 #[derive(Debug, Subcommand)]
@@ -93,6 +97,14 @@ pub fn rerun_quietly(cli: &Cli) -> Option<ExitCode> {
 
 /// Run the parsed command.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    use anyhow::Context;
+    let threads = match cli.threads {
+        Some(n) => n as usize,
+        None => shellwarp::threads::from_env()
+            .with_context(|| format!("environment variable {}", shellwarp::threads::ENV))?
+            .unwrap_or_else(shellwarp::threads::threads),
+    };
+    shellwarp::threads::set(threads).context("--threads")?;
     match cli.command.unwrap_or_else(|| Command::View(view::ViewArgs::default())) {
         Command::View(args) => view::run(&args),
         Command::Scenes => scenes::run(),

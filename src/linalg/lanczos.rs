@@ -16,7 +16,7 @@
 //! the transformed problem); callers should still check `‖Kφ − λMφ‖ / ‖Kφ‖` with the real `K`.
 
 use faer::linalg::matmul::matmul;
-use faer::{Accum, MatMut, MatRef, Par};
+use faer::{Accum, MatMut, MatRef};
 use nalgebra::{DMatrix, SymmetricEigen};
 
 /// Restarts over which the convergence rate is measured to project the restarts still needed.
@@ -124,10 +124,10 @@ impl Krylov<'_> {
                 basis.transpose(),
                 MatRef::from_column_major_slice(&mw, self.n, b),
                 1.0,
-                Par::Seq,
+                crate::threads::par(),
             );
             let wm = MatMut::from_column_major_slice_mut(w, self.n, b);
-            matmul(wm, Accum::Add, basis, MatRef::from_column_major_slice(&c, s, b), -1.0, Par::Seq);
+            matmul(wm, Accum::Add, basis, MatRef::from_column_major_slice(&c, s, b), -1.0, crate::threads::par());
             total += DMatrix::from_column_slice(s, b, &c);
         }
         total
@@ -179,7 +179,14 @@ impl Krylov<'_> {
             sel.iter().flat_map(|&i| y.column(i).rows(0, s).iter().copied().collect::<Vec<_>>()).collect();
         let mut out = vec![0.0; self.n * sel.len()];
         let o = MatMut::from_column_major_slice_mut(&mut out, self.n, sel.len());
-        matmul(o, Accum::Replace, self.cols(0..s), MatRef::from_column_major_slice(&coef, s, sel.len()), 1.0, Par::Seq);
+        matmul(
+            o,
+            Accum::Replace,
+            self.cols(0..s),
+            MatRef::from_column_major_slice(&coef, s, sel.len()),
+            1.0,
+            crate::threads::par(),
+        );
         out
     }
 }

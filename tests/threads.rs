@@ -1,0 +1,71 @@
+//! `--threads`: results do not depend on the thread count beyond round-off, and a bad count is a
+//! clear error.
+
+use std::process::{Command, Output};
+
+/// Run the program with `args` and a private cache; its output.
+fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let cache = tempfile::tempdir().unwrap();
+    Command::new(env!("CARGO_BIN_EXE_shellwarp"))
+        .args(args)
+        .env("SHELLWARP_CACHE_DIR", cache.path())
+        .env_remove("SHELLWARP_THREADS")
+        .envs(env.iter().copied())
+        .output()
+        .unwrap()
+}
+
+/// Equal to round-off (relative 1e-12).
+fn close(a: &serde_json::Value, b: &serde_json::Value) -> bool {
+    let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
+    (a - b).abs() <= 1e-12 * a.abs().max(b.abs())
+}
+
+/// The JSON a successful run printed.
+fn json(args: &[&str]) -> serde_json::Value {
+    let out = run(args, &[]);
+    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn the_modal_analysis_is_the_same_on_one_thread_and_on_two() {
+    // The creature (12,962 vertices): large enough that faer splits its factorisation and products.
+    let analysis =
+        |threads: &str| json(&["modes", "--scene", "creature", "--modes", "4", "--json", "--threads", threads]);
+    let (one, two) = (analysis("1"), analysis("2"));
+    assert_eq!(one["block_solves"], two["block_solves"]);
+    let pairs = one["eigenvalues"].as_array().unwrap().iter().zip(two["eigenvalues"].as_array().unwrap());
+    assert!(pairs.into_iter().all(|(a, b)| close(a, b)), "{} vs {}", one["eigenvalues"], two["eigenvalues"]);
+}
+
+#[test]
+fn a_newton_solve_of_the_discrete_shell_is_the_same_on_one_thread_and_on_two() {
+    // One implicit step of the creature: Newton iterations, each a factorisation of 38,886 unknowns.
+    let step = |threads: &str| {
+        json(&["sim", "--scene", "creature", "--method", "ds-implicit", "--steps", "1", "--json", "--threads", threads])
+    };
+    let (one, two) = (step("1"), step("2"));
+    assert!(close(&one["final_energy"], &two["final_energy"]), "{} vs {}", one["final_energy"], two["final_energy"]);
+    for key in ["bbox_min", "bbox_max"] {
+        let pairs = one[key].as_array().unwrap().iter().zip(two[key].as_array().unwrap());
+        assert!(pairs.into_iter().all(|(a, b)| close(a, b)), "{key}: {} vs {}", one[key], two[key]);
+    }
+    assert_eq!(one["total_iterations"], two["total_iterations"]);
+    assert!(one["converged"].as_bool().unwrap() && two["converged"].as_bool().unwrap());
+}
+
+#[test]
+fn a_bad_thread_count_is_one_clear_error() {
+    let out = run(&["scenes", "--threads", "0"], &[]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--threads"), "{}", String::from_utf8_lossy(&out.stderr));
+    for bad in ["0", "many", "-2"] {
+        let out = run(&["scenes"], &[("SHELLWARP_THREADS", bad)]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "SHELLWARP_THREADS={bad} was accepted");
+        assert!(err.starts_with("error: environment variable SHELLWARP_THREADS") && err.contains(bad), "{err}");
+    }
+    let out = run(&["scenes"], &[("SHELLWARP_THREADS", "2")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
