@@ -63,18 +63,8 @@ const PARAMS: [ParamSpec; 12] = [
         1e7,
     ),
     spec("k_d", "spring damping k_d", "N·s/m", "Damping of the relative velocity of every connected pair.", 1e3),
-    ParamSpec {
-        ..spec("mu_s", "static friction μ_s", "", "A contact sticks while tangential force ≤ μ_s × normal force.", 10.0)
-    },
-    ParamSpec {
-        ..spec(
-            "mu_k",
-            "kinetic friction μ_k",
-            "",
-            "A sliding contact feels μ_k × normal force against its motion.",
-            10.0,
-        )
-    },
+    spec("mu_s", "static friction μ_s", "", "A contact sticks while tangential force ≤ μ_s × normal force.", 10.0),
+    spec("mu_k", "kinetic friction μ_k", "", "A sliding contact feels μ_k × normal force against its motion.", 10.0),
     ParamSpec { min: 1e-6, ..spec("density", "density", "kg/m²", "Surface density; lumped to particles.", 1e4) },
     ParamSpec {
         min: -1e3,

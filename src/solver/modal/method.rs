@@ -85,12 +85,10 @@ impl Variant {
 }
 
 const PARAMS: [ParamSpec; 10] = [
-    ParamSpec {
-        ..ParamSpec::linear("k_area", "k_A (area)", "N/m", "Area (stretch) stiffness of the shell.", 0.0, 1e9)
-    },
-    ParamSpec { ..ParamSpec::linear("k_length", "k_L (length)", "N/m", "Edge-length (shear) stiffness.", 0.0, 1e9) },
-    ParamSpec { ..ParamSpec::linear("k_bend", "k_B (bending)", "N·m", "Bending (hinge) stiffness.", 1e-9, 1e6) },
-    ParamSpec { ..ParamSpec::linear("density", "density", "kg/m²", "Surface density (lumped mass).", 1e-6, 1e4) },
+    ParamSpec::linear("k_area", "k_A (area)", "N/m", "Area (stretch) stiffness of the shell.", 0.0, 1e9),
+    ParamSpec::linear("k_length", "k_L (length)", "N/m", "Edge-length (shear) stiffness.", 0.0, 1e9),
+    ParamSpec::linear("k_bend", "k_B (bending)", "N·m", "Bending (hinge) stiffness.", 1e-9, 1e6),
+    ParamSpec::linear("density", "density", "kg/m²", "Surface density (lumped mass).", 1e-6, 1e4),
     ParamSpec::linear(
         "gravity",
         "gravity y",
@@ -113,16 +111,14 @@ const PARAMS: [ParamSpec; 10] = [
         )
     },
     ParamSpec::linear("step", "time step", "s", "Fixed step of the modal integrator.", 1e-5, 0.1),
-    ParamSpec {
-        ..ParamSpec::linear(
-            "constraint_damping",
-            "drag damping",
-            "",
-            "Relative Tikhonov damping of over-determined drags.",
-            1e-12,
-            1.0,
-        )
-    },
+    ParamSpec::linear(
+        "constraint_damping",
+        "drag damping",
+        "",
+        "Relative Tikhonov damping of over-determined drags.",
+        1e-12,
+        1.0,
+    ),
 ];
 
 /// A basis being recomputed in the background.

@@ -19,9 +19,7 @@ const COMMON: [ParamSpec; 10] = [
             1000.0,
         )
     },
-    ParamSpec {
-        ..ParamSpec::linear("density", "density", "kg/m²", "Surface density; lumped to particles.", 1e-6, 1e4)
-    },
+    ParamSpec::linear("density", "density", "kg/m²", "Surface density; lumped to particles.", 1e-6, 1e4),
     ParamSpec::linear("gravity_y", "gravity y", "m/s²", "Vertical gravity (x and z from the scene).", -1e3, 1e3),
     ParamSpec::linear(
         "damping",
@@ -47,16 +45,14 @@ const COMMON: [ParamSpec; 10] = [
         0.0,
         10.0,
     ),
-    ParamSpec {
-        ..ParamSpec::linear(
-            "thickness",
-            "thickness",
-            "m",
-            "Collision thickness of the cloth (bodies and itself).",
-            1e-6,
-            1.0,
-        )
-    },
+    ParamSpec::linear(
+        "thickness",
+        "thickness",
+        "m",
+        "Collision thickness of the cloth (bodies and itself).",
+        1e-6,
+        1.0,
+    ),
     ParamSpec::linear(
         "least_area",
         "least area",
@@ -108,12 +104,8 @@ const XPBD_PARAMS: [ParamSpec; 4] = [
             1000.0,
         )
     },
-    ParamSpec {
-        ..ParamSpec::linear("k_s", "stretch stiffness k_s", "N/m", "Edge stiffness: compliance 1/k_s.", 1e-6, 1e9)
-    },
-    ParamSpec {
-        ..ParamSpec::linear("k_b", "bending rigidity k_b", "N·m", "Hinge stiffness k_b × 6|e|²/(A₁ + A₂).", 0.0, 1e3)
-    },
+    ParamSpec::linear("k_s", "stretch stiffness k_s", "N/m", "Edge stiffness: compliance 1/k_s.", 1e-6, 1e9),
+    ParamSpec::linear("k_b", "bending rigidity k_b", "N·m", "Hinge stiffness k_b × 6|e|²/(A₁ + A₂).", 0.0, 1e3),
     ParamSpec::linear(
         "compression",
         "compression",
