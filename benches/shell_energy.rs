@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::DVec3;
 use shellwarp::energy::{DiscreteShell, HessianMode, ShellStiffness};
-use shellwarp::linalg::{BlockAssembler, DofMap};
+use shellwarp::linalg::DofMap;
 use shellwarp::mesh::{TriMesh, generate};
 
 fn bench_mesh(c: &mut Criterion, name: &str, mesh: &TriMesh) {
@@ -22,7 +22,7 @@ fn bench_mesh(c: &mut Criterion, name: &str, mesh: &TriMesh) {
     let x: Vec<DVec3> =
         mesh.positions().iter().enumerate().map(|(i, &p)| p * (1.0 + 0.01 * ((i as f64) * 0.37).sin())).collect();
     let mut g = vec![DVec3::ZERO; x.len()];
-    let mut asm = BlockAssembler::for_shell(&shell, &DofMap::all(x.len())).expect("pattern");
+    let mut asm = shell.hessian_pattern(&DofMap::all(x.len())).expect("pattern");
     eprintln!(
         "{name}: {} vertices, {} triangles, {} elements, Hessian {}×{} with {} stored entries",
         mesh.vertex_count(),
@@ -47,7 +47,7 @@ fn bench_mesh(c: &mut Criterion, name: &str, mesh: &TriMesh) {
     c.bench_function(&format!("{name}/energy"), |b| b.iter(|| black_box(shell.energy(black_box(&x)))));
     c.bench_function(&format!("{name}/hessian assembly (exact)"), |b| {
         b.iter(|| {
-            asm.assemble_shell(&shell, black_box(&x), HessianMode::Exact);
+            shell.assemble_hessian(&mut asm, black_box(&x), HessianMode::Exact);
             black_box(asm.values()[0])
         })
     });
@@ -55,14 +55,14 @@ fn bench_mesh(c: &mut Criterion, name: &str, mesh: &TriMesh) {
         b.iter_custom(|iters| {
             cpu_time(|| {
                 for _ in 0..iters {
-                    asm.assemble_shell(&shell, black_box(&x), HessianMode::Exact);
+                    shell.assemble_hessian(&mut asm, black_box(&x), HessianMode::Exact);
                     black_box(asm.values()[0]);
                 }
             })
         })
     });
     c.bench_function(&format!("{name}/hessian pattern (symbolic, once)"), |b| {
-        b.iter(|| black_box(BlockAssembler::for_shell(&shell, &DofMap::all(x.len())).expect("pattern").nnz()))
+        b.iter(|| black_box(shell.hessian_pattern(&DofMap::all(x.len())).expect("pattern").nnz()))
     });
 }
 

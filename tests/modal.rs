@@ -9,7 +9,7 @@ use glam::DVec3;
 use modal_common::strip;
 use nalgebra::{DMatrix, SymmetricEigen};
 use shellwarp::energy::{DiscreteShell, HessianMode, ShellStiffness};
-use shellwarp::linalg::{BlockAssembler, DofMap};
+use shellwarp::linalg::DofMap;
 use shellwarp::scene::{self, Setup};
 use shellwarp::solver::modal::compute::{MAX_RESIDUAL, ModalAnalysis, ModalProblem, analyse};
 
@@ -31,8 +31,8 @@ fn compare_with_dense(s: &Setup, a: &ModalAnalysis, skip: usize) {
     let fixed = s.anchored_mask();
     let dofs = DofMap::without(&fixed);
     let shell = DiscreteShell::new(&s.mesh, ShellStiffness::from(&s.scene.material)).unwrap();
-    let mut k = BlockAssembler::for_shell(&shell, &dofs).unwrap();
-    k.assemble_shell(&shell, s.mesh.positions(), HessianMode::Exact);
+    let mut k = shell.hessian_pattern(&dofs).unwrap();
+    shell.assemble_hessian(&mut k, s.mesh.positions(), HessianMode::Exact);
     let kd = k.to_dense();
     let masses = s.masses();
     let m: Vec<f64> = dofs.free_vertices().iter().flat_map(|&v| [masses[v]; 3]).collect();

@@ -5,7 +5,6 @@
 
 use glam::{DQuat, DVec3};
 
-use super::scene_view::f32x3;
 use crate::render::Frame;
 
 /// Ring colours for the rotated x, y and z axes.
@@ -25,9 +24,13 @@ pub fn rotate_gizmo(frame: &mut Frame, centre: DVec3, rotation: DVec3, radius: f
             centre + u * t.cos() + v * t.sin()
         };
         for k in 0..SEGMENTS {
-            frame.line(f32x3(point(k)), f32x3(point(k + 1)), colour);
+            frame.line(point(k).as_vec3().to_array(), point(k + 1).as_vec3().to_array(), colour);
         }
-        frame.line(f32x3(centre - axes[i] * radius * 0.5), f32x3(centre + axes[i] * radius * 1.3), colour);
+        frame.line(
+            (centre - axes[i] * radius * 0.5).as_vec3().to_array(),
+            (centre + axes[i] * radius * 1.3).as_vec3().to_array(),
+            colour,
+        );
     }
 }
 

@@ -17,6 +17,7 @@ use nalgebra::SMatrix;
 use super::EnergyError;
 use super::hinge::{angle_gradient, angle_hessian_lower, lower_index, outer, wrapped_difference};
 use super::stretch::{area_gradient, edge, packed_entry, triangle};
+use crate::linalg::{BlockAssembler, DofMap, LinalgError};
 use crate::mesh::TriMesh;
 
 /// The three stiffnesses of the shell energy.
@@ -293,6 +294,27 @@ impl DiscreteShell {
                 sink(index, &hg.v, &h);
             }
         }
+    }
+
+    /// The sparsity pattern of this shell's Hessian over `dofs`, ready for [`Self::assemble_hessian`].
+    pub fn hessian_pattern(&self, dofs: &DofMap) -> Result<BlockAssembler, LinalgError> {
+        let mut stencils = Vec::with_capacity(self.element_count());
+        self.for_each_stencil(|s| stencils.push(s.to_vec()));
+        BlockAssembler::new(dofs, stencils.iter().map(Vec::as_slice))
+    }
+
+    /// Overwrite `asm`'s values with this shell's Hessian at positions `x` (a full-mesh position
+    /// vector); `asm` must come from [`Self::hessian_pattern`].
+    pub fn assemble_hessian(&self, asm: &mut BlockAssembler, x: &[DVec3], mode: HessianMode) {
+        asm.begin();
+        let mut bad = None;
+        self.element_hessians(x, mode, |e, _, h| {
+            if let Err(err) = asm.add_element(e, h) {
+                bad.get_or_insert(err);
+            }
+        });
+        asm.finish();
+        debug_assert!(bad.is_none(), "assembler built for a different shell: {bad:?}");
     }
 }
 

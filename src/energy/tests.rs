@@ -5,7 +5,7 @@ use std::collections::HashMap;
 use glam::{DQuat, DVec3};
 
 use super::{DiscreteShell, HessianMode, ShellStiffness};
-use crate::linalg::{BlockAssembler, DofMap};
+use crate::linalg::DofMap;
 use crate::mesh::{TriMesh, generate};
 
 struct Rng(u64);
@@ -76,8 +76,8 @@ pub(crate) fn cube_sphere(n: i64) -> TriMesh {
 }
 
 fn dense_hessian(shell: &DiscreteShell, x: &[DVec3], mode: HessianMode) -> Vec<Vec<f64>> {
-    let mut asm = BlockAssembler::for_shell(shell, &DofMap::all(x.len())).unwrap();
-    asm.assemble_shell(shell, x, mode);
+    let mut asm = shell.hessian_pattern(&DofMap::all(x.len())).unwrap();
+    shell.assemble_hessian(&mut asm, x, mode);
     asm.to_dense()
 }
 

@@ -28,6 +28,11 @@ pub(crate) fn register_font() {
     });
 }
 
+/// A method's points in a scatter chart, in its colour ([`method_color`]).
+pub fn method_points(method: &str, points: Vec<(f64, f64)>) -> Series {
+    Series { label: method.to_string(), color: method_color(method), style: Style::Points, points }
+}
+
 /// The colour of a method, the same in every chart. Known methods have fixed colours; any other
 /// name (a method added later) gets one derived from its name.
 pub fn method_color(method: &str) -> RGBColor {

@@ -11,6 +11,7 @@
 //! Convention of the summaries: every number printed in **bold** is a value of the experiment's CSV,
 //! as it reads there (rounded for print); everything else is prose, settings or thresholds.
 
+pub mod case;
 pub mod chart;
 pub mod experiments;
 pub mod measure;
@@ -21,7 +22,8 @@ pub mod typeset;
 
 use std::path::{Path, PathBuf};
 
-pub use runner::{CaseId, chosen, merge, merge_only, plan, run_case, run_cases};
+pub use case::CaseId;
+pub use runner::{chosen, merge, merge_only, plan, run_case, run_cases};
 pub use table::{Column, Table, Value};
 
 use crate::render::RenderError;
@@ -88,14 +90,33 @@ impl EvalError {
     }
 }
 
+/// What an experiment is called and what its table holds.
+#[derive(Debug, Clone, Copy)]
+pub struct About {
+    /// Name on the command line (`paper-fig6`).
+    pub name: &'static str,
+    /// Section title in the summary.
+    pub title: &'static str,
+    /// The columns of its table; the first is always `case`.
+    pub columns: &'static [Column],
+}
+
 /// One experiment: its cases, its table and its report.
 pub trait Experiment: Sync {
+    /// Its name, title and columns.
+    fn about(&self) -> &'static About;
     /// Name on the command line (`paper-fig6`).
-    fn name(&self) -> &'static str;
+    fn name(&self) -> &'static str {
+        self.about().name
+    }
     /// Section title in the summary.
-    fn title(&self) -> &'static str;
+    fn title(&self) -> &'static str {
+        self.about().title
+    }
     /// The columns of its table; the first is always `case`.
-    fn columns(&self) -> &'static [Column];
+    fn columns(&self) -> &'static [Column] {
+        self.about().columns
+    }
     /// The case keys (without the experiment's name), in report order. `quick` plans a smaller sweep.
     fn cases(&self, quick: bool) -> Vec<String>;
     /// Run one case. A case that makes pictures writes them beside its table in `out`

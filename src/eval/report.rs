@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::EvalError;
+use super::{About, EvalError};
 
 /// A chart in the summary.
 #[derive(Debug, Clone, PartialEq)]
@@ -32,6 +32,13 @@ pub struct Section {
     pub charts: Vec<ChartRef>,
     /// Planned cases with no table (filled in by the merge).
     pub missing: Vec<String>,
+}
+
+impl Section {
+    /// The section of the experiment `about`, with its setup paragraph and nothing found yet.
+    pub fn new(about: &About, setup: String) -> Self {
+        Self { experiment: about.name.into(), title: about.title.into(), setup, ..Self::default() }
+    }
 }
 
 /// A number from the data, as printed in the summary: three significant digits, **bold**.

@@ -10,15 +10,14 @@
 //! upper rows `i ≤ j` are the first entries of the sorted `R_j`: one or two cache lines per block, half
 //! the matrix's size). A final pass writes every block column in faer's layout, reading a lower block
 //! `(i, j)`, `i > j`, as the transpose of `(j, i)`. Elements hand in their lower 3 × 3 blocks
-//! (`p ≥ q`, see [`crate::energy::DiscreteShell::element_hessians`]); each stores, per block, the
+//! (`p ≥ q`, see e.g. a discrete shell's `element_hessians`); each stores, per block, the
 //! scratch offset of the upper global block it adds to and whether to add it transposed — computed
 //! at construction — so numeric assembly is a sequential walk of 9-value additions with no searching.
 
 use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
 
 use super::{DofMap, LinalgError};
-use crate::energy::{DiscreteShell, HessianMode};
-use glam::{DMat3, DVec3};
+use glam::DMat3;
 
 /// Flag in [`BlockAssembler::sources`] and [`BlockAssembler::slots`]: the block goes transposed.
 const TRANSPOSED: u32 = 1 << 31;
@@ -128,13 +127,6 @@ impl BlockAssembler {
         Ok(Self { matrix, slots, element_start, diagonal, scratch: vec![0.0; upper], groups, sources })
     }
 
-    /// The pattern of a shell's Hessian over `dofs`.
-    pub fn for_shell(shell: &DiscreteShell, dofs: &DofMap) -> Result<Self, LinalgError> {
-        let mut stencils = Vec::with_capacity(shell.element_count());
-        shell.for_each_stencil(|s| stencils.push(s.to_vec()));
-        Self::new(dofs, stencils.iter().map(Vec::as_slice))
-    }
-
     /// Number of rows (= columns).
     pub fn dim(&self) -> usize {
         self.matrix.nrows()
@@ -195,19 +187,6 @@ impl BlockAssembler {
                 }
             }
         }
-    }
-
-    /// Overwrite the values with the shell's Hessian at positions `x` (a full-mesh position vector).
-    pub fn assemble_shell(&mut self, shell: &DiscreteShell, x: &[DVec3], mode: HessianMode) {
-        self.begin();
-        let mut bad = None;
-        shell.element_hessians(x, mode, |e, _, h| {
-            if let Err(err) = self.add_element(e, h) {
-                bad.get_or_insert(err);
-            }
-        });
-        self.finish();
-        debug_assert!(bad.is_none(), "assembler built for a different shell: {bad:?}");
     }
 
     /// Add `d[k]` to the `k`-th diagonal entry (e.g. a lumped mass matrix scaled by `1/h²`).

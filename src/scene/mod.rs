@@ -7,16 +7,17 @@ mod error;
 mod overrides;
 mod schema;
 mod script;
+mod selection;
 mod setup;
 mod validate;
 
 pub use builtin::{BUILTIN, builtin_names};
 pub use error::SceneError;
 pub use schema::{
-    Aabb, CameraSpec, Collider, Load, Material, MeshSource, Motion, Part, Placement, Scene, Selection, SolverSettings,
-    WindSpec,
+    CameraSpec, Collider, Load, Material, MeshSource, Motion, Part, Placement, Scene, SolverSettings, WindSpec,
 };
 pub use script::{Joint, Key, Skeleton, Track};
+pub use selection::{Aabb, Selection};
 pub use setup::Setup;
 
 use std::path::{Path, PathBuf};

@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::script::{Skeleton, Track};
+use super::selection::Selection;
 
 /// A complete scene: what to simulate, with which method, seen from where.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -212,28 +213,6 @@ impl Default for Material {
             k_pressure: None,
         }
     }
-}
-
-/// A set of vertices: those inside an axis-aligned box, or listed by index (exactly one of the two).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Selection {
-    /// Select vertices inside this box (after placement).
-    #[serde(default, rename = "box")]
-    pub aabb: Option<Aabb>,
-    /// Select these vertex indices.
-    #[serde(default)]
-    pub indices: Option<Vec<usize>>,
-}
-
-/// An axis-aligned box, metres.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Aabb {
-    /// Lower corner.
-    pub min: [f64; 3],
-    /// Upper corner.
-    pub max: [f64; 3],
 }
 
 /// A constant force applied to each selected vertex.

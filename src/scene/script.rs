@@ -19,7 +19,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::schema::Selection;
+use super::selection::Selection;
 
 /// A constraint track: the selected vertices follow a rigid frame given by keyframes or by a joint.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -2,7 +2,8 @@
 
 use glam::{DMat3, DQuat, DVec3, EulerRot};
 
-use super::schema::{Collider, MeshSource, Motion, Placement, Scene, Selection};
+use super::schema::{Collider, MeshSource, Motion, Placement, Scene};
+use super::selection::Selection;
 use super::{Origin, SceneError};
 use crate::collision::{self, Body, MeshDistance, Shape};
 use crate::mesh::{MeshError, TriMesh, generate};

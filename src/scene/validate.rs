@@ -1,7 +1,8 @@
 //! Value checks that serde's typing cannot express. Each failure names its dotted key.
 
-use super::schema::{Collider, MeshSource, Scene, Selection};
+use super::schema::{Collider, MeshSource, Scene};
 use super::script::{Key, Skeleton, Track};
+use super::selection::Selection;
 
 /// A failed check: the dotted key and the reason.
 pub(crate) type Invalid = (String, String);

@@ -290,7 +290,7 @@ pub fn build(setup: &Setup) -> Result<(Box<dyn Solver>, Vec<String>), SolverErro
     let choice = choose(setup, accuracy)?;
     let mut winner = choice.winner().apply(setup);
     winner.scene.tracks.clear();
-    Ok((registry::build(&winner)?, choice.explain()))
+    Ok((registry::build_named(&winner)?, choice.explain()))
 }
 
 fn shell_candidates(setup: &Setup) -> Vec<Candidate> {
@@ -305,7 +305,7 @@ fn shell_candidates(setup: &Setup) -> Vec<Candidate> {
 
 /// Wall-clock seconds per simulated second: a few steps from rest, timed (at least 20 ms of work).
 fn cost(setup: &Setup) -> Result<f64, SolverError> {
-    let mut solver = registry::build(setup)?;
+    let mut solver = registry::build_named(setup)?;
     let (mut wall, mut simulated, mut steps) = (0.0, 0.0, 0);
     while steps < 3 || (wall < 0.02 && steps < 200) {
         let start = Instant::now();
@@ -371,7 +371,7 @@ fn settle(
 pub fn start(setup: &Setup, drags: &DragSet) -> Result<Box<dyn Solver>, SolverError> {
     let mut still = setup.clone();
     still.scene.tracks.clear();
-    let mut solver = registry::build(&still)?;
+    let mut solver = registry::build_named(&still)?;
     for (_, d) in drags.iter() {
         if matches!(d.kind, super::DragKind::Position(_)) || solver.drags().supports_orientation() {
             solver.drags_mut().add(*d)?;
@@ -444,7 +444,7 @@ mod tests {
         assert!(strict.candidates[strict.chosen + 1..].iter().all(|c| c.estimate.is_nan()));
         let mut s = setup.clone();
         s.scene.solver.accuracy = Some(0.05);
-        let built = registry::build(&s).unwrap();
+        let built = crate::solver::build(&s).unwrap();
         assert_eq!(built.method(), strict.winner().method);
         assert!(built.notes()[0].starts_with("accuracy 0.05: chose"), "{:?}", built.notes());
     }

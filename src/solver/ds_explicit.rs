@@ -15,10 +15,10 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::registry::{Footprint, Method};
 use super::shell_model::SHELL_PARAMS;
 use super::stability::{StabilityLimit, stability_limit};
 use super::{DragSet, ParamSpec, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
+use super::{Footprint, Method};
 use crate::scene::Setup;
 
 /// Registry entry.
@@ -139,7 +139,7 @@ impl Solver for DsExplicit {
         let mut residual = 0.0;
         for s in 0..substeps {
             super::supersede::checkpoint();
-            self.model.blow(self.time + s as f64 * h, &self.x, &self.v);
+            self.model.apply_wind(self.time + s as f64 * h, &self.x, &self.v);
             self.model.potential_gradient(&self.x, &mut g);
             if self.model.beta > 0.0 {
                 self.model.dofs().gather(&self.v, &mut vr);

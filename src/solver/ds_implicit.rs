@@ -6,10 +6,10 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::newton::{Inertia, NewtonSettings};
-use super::registry::{Footprint, Method};
+use super::newton::{Inertia, NEWTON_PARAMS, NewtonSettings};
 use super::shell_model::SHELL_PARAMS;
 use super::{DragSet, ParamSpec, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
+use super::{Footprint, Method};
 use crate::scene::Setup;
 
 /// Registry entry.
@@ -19,37 +19,6 @@ pub const METHOD: Method = Method {
     build: |setup| Ok(Box::new(DsImplicit::new(setup)?)),
     footprint: Footprint::FACTORED,
 };
-
-/// `step`, `iterations`, `tolerance`.
-pub(crate) const NEWTON_PARAMS: [ParamSpec; 3] = [
-    ParamSpec {
-        name: "step",
-        label: "time step",
-        unit: "s",
-        help: "Backward Euler step.",
-        min: 1e-6,
-        max: 1.0,
-        integer: false,
-    },
-    ParamSpec {
-        name: "iterations",
-        label: "Newton iterations",
-        unit: "",
-        help: "Cap on Newton iterations per step.",
-        min: 1.0,
-        max: 1000.0,
-        integer: true,
-    },
-    ParamSpec {
-        name: "tolerance",
-        label: "Newton tolerance",
-        unit: "",
-        help: "Relative residual at which Newton stops.",
-        min: 1e-14,
-        max: 1.0,
-        integer: false,
-    },
-];
 
 /// The implicit discrete-shell integrator.
 pub struct DsImplicit {
@@ -98,7 +67,7 @@ impl Solver for DsImplicit {
     fn step(&mut self) -> Result<StepStats, SolverError> {
         let start = Instant::now();
         self.model.apply_drags(&self.drags, &mut self.x, &mut self.v)?;
-        self.model.blow(self.time, &self.x, &self.v);
+        self.model.apply_wind(self.time, &self.x, &self.v);
         let previous = self.x.clone();
         // Start Newton from the inertial prediction x + h v.
         let mut y: Vec<DVec3> = self.x.iter().zip(&self.v).map(|(x, v)| *x + *v * self.h).collect();
@@ -116,15 +85,7 @@ impl Solver for DsImplicit {
         self.time += self.h;
         let energy = self.model.potential(&self.x) + self.model.kinetic(&self.v);
         check_finite(self.steps, self.time, &self.x, energy, 1e6 * self.model.energy_scale())?;
-        Ok(StepStats {
-            wall_seconds: start.elapsed().as_secs_f64(),
-            sim_time: self.time,
-            energy,
-            residual: report.residual,
-            iterations: report.iterations,
-            relative_residual: report.relative_residual,
-            converged: report.converged,
-        })
+        Ok(StepStats::solved(start, self.time, energy, &report))
     }
 
     fn positions(&self) -> &[DVec3] {

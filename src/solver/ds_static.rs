@@ -24,11 +24,10 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::ds_implicit::NEWTON_PARAMS;
-use super::newton::{NewtonReport, NewtonSettings};
-use super::registry::{Footprint, Method};
+use super::newton::{NEWTON_PARAMS, NewtonReport, NewtonSettings};
 use super::shell_model::SHELL_PARAMS;
 use super::{DragSet, ParamSpec, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
+use super::{Footprint, Method};
 use crate::scene::Setup;
 
 /// Registry entry.
@@ -190,15 +189,7 @@ impl Solver for DsStatic {
         self.steps += 1;
         let energy = self.model.potential(&self.x);
         check_finite(self.steps, time, &self.x, energy, 1e6 * self.model.energy_scale())?;
-        Ok(StepStats {
-            wall_seconds: start.elapsed().as_secs_f64(),
-            sim_time: time,
-            energy,
-            residual: report.residual,
-            iterations: report.iterations,
-            relative_residual: report.relative_residual,
-            converged: report.converged,
-        })
+        Ok(StepStats::solved(start, time, energy, &report))
     }
 
     fn positions(&self) -> &[DVec3] {

@@ -15,9 +15,40 @@
 use glam::DVec3;
 
 use super::ShellModel;
-use super::SolverError;
+use super::{ParamSpec, SolverError};
 use crate::energy::HessianMode;
 use crate::linalg::SparseCholesky;
+
+/// The Newton methods' settings: `step`, `iterations`, `tolerance`.
+pub(crate) const NEWTON_PARAMS: [ParamSpec; 3] = [
+    ParamSpec {
+        name: "step",
+        label: "time step",
+        unit: "s",
+        help: "Backward Euler step.",
+        min: 1e-6,
+        max: 1.0,
+        integer: false,
+    },
+    ParamSpec {
+        name: "iterations",
+        label: "Newton iterations",
+        unit: "",
+        help: "Cap on Newton iterations per step.",
+        min: 1.0,
+        max: 1000.0,
+        integer: true,
+    },
+    ParamSpec {
+        name: "tolerance",
+        label: "Newton tolerance",
+        unit: "",
+        help: "Relative residual at which Newton stops.",
+        min: 1e-14,
+        max: 1.0,
+        integer: false,
+    },
+];
 
 /// Iteration cap and relative tolerance.
 #[derive(Debug, Clone, Copy, PartialEq)]

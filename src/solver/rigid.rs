@@ -11,8 +11,8 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::registry::{Footprint, Method};
 use super::{DragKind, DragSet, ParamSpec, ParamValue, Solver, SolverError, StepStats};
+use super::{Footprint, Method};
 use crate::scene::Setup;
 
 /// Registry entry.

@@ -290,6 +290,16 @@ pub struct Scripted {
     why: Vec<String>,
 }
 
+/// `inner` driven by `setup`'s tracks, with `why` it was chosen to tell the user; `inner` itself when
+/// there is neither.
+pub fn drive(inner: Box<dyn Solver>, setup: &Setup, why: Vec<String>) -> Result<Box<dyn Solver>, SolverError> {
+    let script = Script::new(setup);
+    if script.is_empty() && why.is_empty() {
+        return Ok(inner);
+    }
+    Ok(Box::new(Scripted::new(inner, script, why)?))
+}
+
 impl Scripted {
     /// Wrap `inner`, placing the drags at their time-0 targets (fails if the method refuses a track).
     pub fn new(mut inner: Box<dyn Solver>, mut script: Script, why: Vec<String>) -> Result<Self, SolverError> {

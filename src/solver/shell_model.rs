@@ -73,7 +73,7 @@ impl ShellModel {
         let shell = DiscreteShell::new(&setup.mesh, k).map_err(|e| SolverError::Numerical(e.to_string()))?;
         let anchored = setup.anchored_mask();
         let dofs = DofMap::without(&anchored);
-        let asm = BlockAssembler::for_shell(&shell, &dofs).map_err(|e| SolverError::Numerical(e.to_string()))?;
+        let asm = shell.hessian_pattern(&dofs).map_err(|e| SolverError::Numerical(e.to_string()))?;
         let mut model = Self {
             shell,
             mesh: setup.mesh.clone(),
@@ -115,7 +115,7 @@ impl ShellModel {
 
     /// Make the external forces the scene's plus the wind's at this state (nothing to do in calm air
     /// that was calm before): the wind is taken at the start of each step (or substep) and held over it.
-    pub(crate) fn blow(&mut self, t: f64, x: &[DVec3], v: &[DVec3]) {
+    pub(crate) fn apply_wind(&mut self, t: f64, x: &[DVec3], v: &[DVec3]) {
         let calm = self.wind.is_calm();
         if !calm || self.blown {
             self.f_ext = self.loads(t, x, v);
@@ -185,7 +185,7 @@ impl ShellModel {
 
     /// Assemble the reduced Hessian of `W` at `x` into [`ShellModel::assembler`].
     pub(crate) fn assemble(&mut self, x: &[DVec3], mode: HessianMode) {
-        self.asm.assemble_shell(&self.shell, x, mode);
+        self.shell.assemble_hessian(&mut self.asm, x, mode);
     }
 
     /// The reduced rest stiffness `K₀` values (computed once, again after stiffness changes).
@@ -193,7 +193,7 @@ impl ShellModel {
     pub(crate) fn rest_stiffness(&mut self) -> &[f64] {
         if self.k0.is_none() {
             let rest = self.rest().to_vec();
-            self.asm.assemble_shell(&self.shell, &rest, HessianMode::Exact);
+            self.shell.assemble_hessian(&mut self.asm, &rest, HessianMode::Exact);
             self.k0 = Some(self.asm.values().to_vec());
         }
         self.k0.as_deref().unwrap_or_default()
@@ -245,8 +245,7 @@ impl ShellModel {
             let dofs = DofMap::without(&fixed);
             if dofs != self.dofs {
                 self.dofs = dofs;
-                self.asm = BlockAssembler::for_shell(&self.shell, &self.dofs)
-                    .map_err(|e| SolverError::Numerical(e.to_string()))?;
+                self.asm = self.shell.hessian_pattern(&self.dofs).map_err(|e| SolverError::Numerical(e.to_string()))?;
                 self.chol = None;
                 self.k0 = None;
             }

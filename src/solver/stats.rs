@@ -1,8 +1,11 @@
 //! Per-step statistics and the shared divergence check.
 
+use std::time::Instant;
+
 use glam::DVec3;
 
-use super::SolverError;
+use super::{NewtonReport, SolverError};
+use crate::linalg::filtered_pcg::PcgReport;
 
 /// What one call of [`super::Solver::step`] did.
 ///
@@ -26,6 +29,33 @@ pub struct StepStats {
     /// Whether the step's solve met its tolerance within its iteration cap (`true` if there is none).
     /// A step that did not converge still returns `Ok` with the best iterate it reached.
     pub converged: bool,
+}
+
+impl StepStats {
+    /// A step begun at `start` that reached `sim_time` with `energy`, its inner solve reporting `solve`.
+    pub fn solved(start: Instant, sim_time: f64, energy: f64, solve: &impl Converged) -> Self {
+        let (iterations, residual, relative_residual, converged) = solve.figures();
+        let wall_seconds = start.elapsed().as_secs_f64();
+        Self { wall_seconds, sim_time, energy, residual, iterations, relative_residual, converged }
+    }
+}
+
+/// An inner solve's report, as the step's statistics hold it.
+pub trait Converged {
+    /// Its iterations, final residual, residual relative to its own scale, and whether it converged.
+    fn figures(&self) -> (u32, f64, f64, bool);
+}
+
+impl Converged for NewtonReport {
+    fn figures(&self) -> (u32, f64, f64, bool) {
+        (self.iterations, self.residual, self.relative_residual, self.converged)
+    }
+}
+
+impl Converged for PcgReport {
+    fn figures(&self) -> (u32, f64, f64, bool) {
+        (self.iterations, self.residual, self.relative_residual, self.converged)
+    }
 }
 
 impl Default for StepStats {

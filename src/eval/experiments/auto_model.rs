@@ -15,12 +15,12 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::super::chart::{Axis, Plot, Series, Style, method_color};
+use super::super::chart::{Axis, Plot, Series, Style, method_points};
 use super::super::measure;
 use super::super::report::{Section, bold};
 use super::super::table::{Column, Table, Value, computed, timed};
-use super::super::{EvalError, Experiment};
-use super::{chart_ref, f};
+use super::super::{About, EvalError, Experiment};
+use super::{chart_ref, flag};
 use crate::scene::Setup;
 use crate::solver::auto::{self, Candidate, Family};
 use crate::solver::{DragSet, parts};
@@ -48,6 +48,10 @@ const COLUMNS: &[Column] = &[
     timed("choice_time", "s"),
     timed("brute_force_time", "s"),
 ];
+
+/// The experiment's name, title and columns.
+const ABOUT: About =
+    About { name: "auto-model", title: "The automatic model choice against the brute force", columns: COLUMNS };
 
 /// The hanging sheet held along its whole top edge (a curtain: tensioned, one equilibrium).
 const CURTAIN: &str = "anchors=[{ box = { min = [-0.6, 1.49, -0.01], max = [0.6, 1.51, 0.01] } }]";
@@ -156,11 +160,11 @@ fn brute_force(
             ("step", c.step.unwrap_or(f64::NAN).into()),
             ("tolerance", c.tolerance.unwrap_or(f64::NAN).into()),
             ("true_error", error.into()),
-            ("meets", f(error <= *accuracy)),
+            ("meets", flag(error <= *accuracy)),
             ("cost", c.cost.into()),
             ("estimate", c.estimate.into()),
-            ("chosen", f(i == choice.chosen)),
-            ("cheapest_meeting", if best.is_some() { f(Some(i) == best) } else { f64::NAN.into() }),
+            ("chosen", flag(i == choice.chosen)),
+            ("cheapest_meeting", if best.is_some() { flag(Some(i) == best) } else { f64::NAN.into() }),
             ("cost_vs_cheapest", ratio.into()),
             ("failure", c.failure.clone().unwrap_or_default().into()),
             ("choice_time", choice_time.into()),
@@ -171,16 +175,8 @@ fn brute_force(
 }
 
 impl Experiment for AutoModel {
-    fn name(&self) -> &'static str {
-        "auto-model"
-    }
-
-    fn title(&self) -> &'static str {
-        "The automatic model choice against the brute force"
-    }
-
-    fn columns(&self) -> &'static [Column] {
-        COLUMNS
+    fn about(&self) -> &'static About {
+        &ABOUT
     }
 
     fn cases(&self, quick: bool) -> Vec<String> {
@@ -201,11 +197,9 @@ impl Experiment for AutoModel {
     }
 
     fn report(&self, table: &Table, out: &Path) -> Result<Section, EvalError> {
-        let mut section = Section {
-            experiment: self.name().into(),
-            title: self.title().into(),
-            setup:
-                "Each scene gives `solver.accuracy` (the target below). The chooser measures every candidate's cost \
+        let mut section = Section::new(
+            self.about(),
+            "Each scene gives `solver.accuracy` (the target below). The chooser measures every candidate's cost \
                  (a few timed steps), then estimates errors in order of cost until one meets the target: shells by \
                  three Newton iterations of the full discrete-shell equations from the candidate's equilibrium, \
                  cloth by relaxing the candidate's rest state with five near-static implicit steps (0.1 s, PCG \
@@ -219,9 +213,8 @@ impl Experiment for AutoModel {
                  vertices fixed there). Cost ratio = chosen ÷ brute-force cheapest, same cost measurements. \
                  Search time: the chooser's (costs, then estimates) against the brute force's (the same costs, \
                  the reference and every candidate run to rest)."
-                    .into(),
-            ..Section::default()
-        };
+                .into(),
+        );
         let idx = |n: &str| table.index(n);
         let (si, pi, ai, mi, oi, hi, ti, ei, xi, chi, ki, ri, mti, ci, bi) = (
             idx("case")?,
@@ -316,11 +309,11 @@ impl Experiment for AutoModel {
         methods.dedup();
         let mut series: Vec<Series> = methods
             .iter()
-            .map(|m| Series {
-                label: m.clone(),
-                color: method_color(m),
-                style: Style::Points,
-                points: estimated.iter().filter(|e| e.0 == *m && e.1 > 0.0 && e.2 > 0.0).map(|e| (e.1, e.2)).collect(),
+            .map(|m| {
+                method_points(
+                    m,
+                    estimated.iter().filter(|e| e.0 == *m && e.1 > 0.0 && e.2 > 0.0).map(|e| (e.1, e.2)).collect(),
+                )
             })
             .collect();
         let span = estimated

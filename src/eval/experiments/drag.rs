@@ -18,8 +18,8 @@ use super::super::chart::{Axis, Plot, Series, Style, method_color};
 use super::super::measure::{self, Stop};
 use super::super::report::{Section, bold, bold_percent, number};
 use super::super::table::{Column, Table, Value, computed, timed};
-use super::super::{EvalError, Experiment};
-use super::{chart_ref, f, num, pareto};
+use super::super::{About, EvalError, Experiment};
+use super::{chart_ref, flag, num, pareto};
 use crate::scene::{Key, Setup};
 use crate::solver::quality;
 
@@ -42,6 +42,13 @@ const COLUMNS: &[Column] = &[
     computed("steps", ""),
     timed("cost", "s/s"),
 ];
+
+/// The experiment's name, title and columns.
+const ABOUT: About = About {
+    name: "drag",
+    title: "Drags and twists: every shell method against the discrete shell walked through the motion",
+    columns: COLUMNS,
+};
 
 /// The pulled vertex of each scene and the direction of the pull (the creature's is the issue's drag
 /// of its head, down and sideways; the cantilever's tip corner goes up, in and sideways).
@@ -111,16 +118,8 @@ fn parse(case: &str) -> Result<(&str, &str, f64), EvalError> {
 }
 
 impl Experiment for Drags {
-    fn name(&self) -> &'static str {
-        "drag"
-    }
-
-    fn title(&self) -> &'static str {
-        "Drags and twists: every shell method against the discrete shell walked through the motion"
-    }
-
-    fn columns(&self) -> &'static [Column] {
-        COLUMNS
+    fn about(&self) -> &'static About {
+        &ABOUT
     }
 
     fn cases(&self, quick: bool) -> Vec<String> {
@@ -177,7 +176,7 @@ impl Experiment for Drags {
                 ("area_change", measure::area_change(&run.positions, &s).into()),
                 ("estimate", estimate.into()),
                 ("outcome", run.outcome_word().into()),
-                ("ref_converged", f(converged)),
+                ("ref_converged", flag(converged)),
                 ("sim_time", run.sim_time.into()),
                 ("steps", num(run.steps)),
                 ("cost", run.cost().into()),
@@ -188,10 +187,9 @@ impl Experiment for Drags {
     }
 
     fn report(&self, table: &Table, out: &Path) -> Result<Section, EvalError> {
-        let mut section = Section {
-            experiment: self.name().into(),
-            title: self.title().into(),
-            setup: "One vertex of the `cantilever` (its tip corner, up, in and sideways) and of the `creature` \
+        let mut section = Section::new(
+            self.about(),
+            "One vertex of the `cantilever` (its tip corner, up, in and sideways) and of the `creature` \
                     (vertex 100 of its head, down and sideways) pulled by 5%, 15% and 30% of the scene's length, and \
                     the strip (the cantilever without gravity) with its tip row turned by 90°, 180° and 360° and \
                     held in place. Each motion is one track that every method follows (the modal methods hold a \
@@ -203,8 +201,7 @@ impl Experiment for Drags {
                     estimated error of the final shape (Newton on the full shell from it); cost: wall-clock \
                     seconds per simulated second, one thread."
                 .into(),
-            ..Section::default()
-        };
+        );
         let col = |name: &str| table.index(name);
         let (ki, zi, mi, ni) = (col("motion")?, col("size")?, col("method")?, col("modes")?);
         let (ei, ai, ti, ci, ri) =

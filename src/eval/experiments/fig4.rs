@@ -15,13 +15,13 @@ use std::path::Path;
 
 use glam::{DVec3, Vec3};
 
+use super::super::case::CaseId;
 use super::super::chart::{Axis, Plot, Series, Style, Tiles, method_color};
 use super::super::measure::{self, Stop};
 use super::super::report::{Section, bold, number};
-use super::super::runner::CaseId;
 use super::super::table::{Column, Table, Value, computed, timed};
-use super::super::{EvalError, Experiment};
-use super::{chart_ref, f, key_value, tip_deflection};
+use super::super::{About, EvalError, Experiment};
+use super::{chart_ref, flag, key_value, tip_deflection};
 use crate::app::scene_view::{SceneView, ViewOptions};
 use crate::render::{Camera, Headless, load_png, save_png};
 
@@ -40,6 +40,13 @@ const COLUMNS: &[Column] = &[
     computed("ref_converged", ""),
     timed("wall", "s"),
 ];
+
+/// The experiment's name, title and columns.
+const ABOUT: About = About {
+    name: "paper-fig4",
+    title: "The paper's Fig. 4: flat beam and V-beam of equal bending stiffness",
+    columns: COLUMNS,
+};
 
 /// `k_B` of the × 1 pair, N·m: soft enough that the flat beam hangs and the V-beam's section works.
 pub const BASE_K_BEND: f64 = 0.005;
@@ -87,16 +94,8 @@ fn caption(table: &Table, case: &str) -> Result<String, EvalError> {
 }
 
 impl Experiment for PaperFig4 {
-    fn name(&self) -> &'static str {
-        "paper-fig4"
-    }
-
-    fn title(&self) -> &'static str {
-        "The paper's Fig. 4: flat beam and V-beam of equal bending stiffness"
-    }
-
-    fn columns(&self) -> &'static [Column] {
-        COLUMNS
+    fn about(&self) -> &'static About {
+        &ABOUT
     }
 
     fn cases(&self, _quick: bool) -> Vec<String> {
@@ -125,7 +124,7 @@ impl Experiment for PaperFig4 {
                 ("tip_deflection", tip_deflection(x, &rest).into()),
                 ("rel_error", measure::relative_error(x, &reference.positions, &rest).into()),
                 ("area_change", measure::area_change(x, &base).into()),
-                ("ref_converged", f(reference.converged)),
+                ("ref_converged", flag(reference.converged)),
                 ("wall", wall.into()),
             ]
         };
@@ -166,10 +165,9 @@ impl Experiment for PaperFig4 {
     }
 
     fn report(&self, table: &Table, out: &Path) -> Result<Section, EvalError> {
-        let mut section = Section {
-            experiment: self.name().into(),
-            title: self.title().into(),
-            setup: format!(
+        let mut section = Section::new(
+            self.about(),
+            format!(
                 "The built-in `v-beam` (1 m × 0.2 m, 40 × 8 cells, 90° crease) and the same mesh opened flat, \
                  k_B = {BASE_K_BEND} N·m × 1, × 10, × 100, gravity 9.81 m/s², clamped by two rows. `lma` and \
                  `mwts` ({MODES} modes) run to rest under critical damping of the lowest mode; `ds-static` is the \
@@ -177,8 +175,7 @@ impl Experiment for PaperFig4 {
                  and the rest shape's outline (white), each panel fitted to its beam and seen from the free \
                  end's side and above; under each, the tip deflection of the reference (and of `mwts`)."
             ),
-            ..Section::default()
-        };
+        );
         let (bi, ki, mi, ti) = (
             table.index("beam")?,
             table.index("k_bend_factor")?,

@@ -11,8 +11,8 @@ use super::super::chart::{Axis, Plot, Series, Style, method_color};
 use super::super::measure::{self, Stop};
 use super::super::report::{Section, bold, bold_percent};
 use super::super::table::{Column, Table, Value, computed, timed};
-use super::super::{EvalError, Experiment};
-use super::{chart_ref, f, key_value, num, tip_deflection};
+use super::super::{About, EvalError, Experiment};
+use super::{chart_ref, flag, key_value, num, tip_deflection};
 
 /// The experiment.
 pub struct PaperFig6;
@@ -35,6 +35,10 @@ const COLUMNS: &[Column] = &[
     timed("cost", "s/s"),
 ];
 
+/// The experiment's name, title and columns.
+const ABOUT: About =
+    About { name: "paper-fig6", title: "The paper's Fig. 6: error and area change against gravity", columns: COLUMNS };
+
 /// The scenes and their gravity sweeps (m/s²), small loads to collapse.
 const SWEEPS: [(&str, &[f64]); 2] = [
     // From 2 m/s²: below it the reference's relative residual is at the f64 round-off floor (about
@@ -53,16 +57,8 @@ pub const METHODS: [&str; 4] = ["lma", "mwts", "ds-implicit", "ds"];
 pub const MODES: usize = 8;
 
 impl Experiment for PaperFig6 {
-    fn name(&self) -> &'static str {
-        "paper-fig6"
-    }
-
-    fn title(&self) -> &'static str {
-        "The paper's Fig. 6: error and area change against gravity"
-    }
-
-    fn columns(&self) -> &'static [Column] {
-        COLUMNS
+    fn about(&self) -> &'static About {
+        &ABOUT
     }
 
     fn cases(&self, quick: bool) -> Vec<String> {
@@ -87,7 +83,7 @@ impl Experiment for PaperFig6 {
                 ("gravity", g.into()),
                 ("method", method.to_string().into()),
                 ("ref_relative_residual", reference.relative_residual.into()),
-                ("ref_converged", f(reference.converged)),
+                ("ref_converged", flag(reference.converged)),
             ]
         };
         let mut row = common("ds-static");
@@ -128,10 +124,9 @@ impl Experiment for PaperFig6 {
     }
 
     fn report(&self, table: &Table, out: &Path) -> Result<Section, EvalError> {
-        let mut section = Section {
-            experiment: self.name().into(),
-            title: self.title().into(),
-            setup: format!(
+        let mut section = Section::new(
+            self.about(),
+            format!(
                 "Flat strip (`cantilever`, 205 vertices) and V-beam (`v-beam`, 369 vertices, 90° crease), clamped \
                  by two rows, under gravity swept from small loads to collapse. `lma` and `mwts` with {MODES} \
                  modes, `ds-implicit` (backward Euler, 1/30 s) and `ds` (explicit, automatic substep) run from \
@@ -140,8 +135,7 @@ impl Experiment for PaperFig6 {
                  residual ≤ 1e-8; an unconverged reference is not plotted). Error: ‖u − u_ref‖ / ‖u_ref‖ over \
                  all vertices; area change: |A − A₀| / A₀."
             ),
-            ..Section::default()
-        };
+        );
         for (scene, _) in SWEEPS {
             let rows: Vec<&Vec<Value>> = table.filter("scene", scene)?.collect();
             if rows.is_empty() {

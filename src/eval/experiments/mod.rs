@@ -31,8 +31,8 @@ fn chart_ref(file: String, caption: String) -> ChartRef {
 }
 
 /// A flag as a number cell (1 or 0).
-fn f(flag: bool) -> Value {
-    Value::Num(if flag { 1.0 } else { 0.0 })
+fn flag(on: bool) -> Value {
+    Value::Num(if on { 1.0 } else { 0.0 })
 }
 
 /// A count as a number cell.

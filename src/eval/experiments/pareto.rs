@@ -17,11 +17,11 @@ use std::path::Path;
 
 use glam::DVec3;
 
-use super::super::chart::{Axis, Plot, Series, Style, method_color};
+use super::super::chart::{Axis, Plot, Series, Style, method_points};
 use super::super::measure::{self, Run, Stop};
 use super::super::report::{Section, bold};
 use super::super::table::{Column, Table, computed, timed};
-use super::super::{EvalError, Experiment};
+use super::super::{About, EvalError, Experiment};
 use super::chart_ref;
 use crate::solver::registry;
 
@@ -40,6 +40,13 @@ const COLUMNS: &[Column] = &[
     computed("ref_converged", ""),
     timed("cost", "s/s"),
 ];
+
+/// The experiment's name, title and columns.
+const ABOUT: About = About {
+    name: "pareto",
+    title: "Cost against accuracy: every method and setting, and the Pareto front",
+    columns: COLUMNS,
+};
 
 /// One point to measure: a method with settings (scene overrides).
 struct Point {
@@ -149,16 +156,8 @@ const TWIST_DEGREES: f64 = 90.0;
 const DRAPE_TIME: f64 = 1.0;
 
 impl Experiment for Pareto {
-    fn name(&self) -> &'static str {
-        "pareto"
-    }
-
-    fn title(&self) -> &'static str {
-        "Cost against accuracy: every method and setting, and the Pareto front"
-    }
-
-    fn columns(&self) -> &'static [Column] {
-        COLUMNS
+    fn about(&self) -> &'static About {
+        &ABOUT
     }
 
     fn cases(&self, quick: bool) -> Vec<String> {
@@ -186,17 +185,14 @@ impl Experiment for Pareto {
             ("outcome", run.outcome_word().into()),
             ("sim_time", run.sim_time.into()),
             ("steps", (run.steps as f64).into()),
-            ("ref_converged", super::f(reference.1)),
+            ("ref_converged", super::flag(reference.1)),
             ("cost", run.cost().into()),
         ])?;
         Ok(table)
     }
 
     fn report(&self, table: &Table, out: &Path) -> Result<Section, EvalError> {
-        let mut section = Section {
-            experiment: self.name().into(),
-            title: self.title().into(),
-            setup: "Cost: wall-clock seconds per simulated second, one thread. Error: ‖u − u_ref‖ / ‖u_ref‖ over all \
+        let mut section = Section::new(self.about(), "Cost: wall-clock seconds per simulated second, one thread. Error: ‖u − u_ref‖ / ‖u_ref‖ over all \
                     vertices against the family's reference. `beam`: the flat cantilever under 2.5 g, run to rest \
                     (critical damping of its lowest mode), reference `ds-static`. `twist`: the strip without gravity, \
                     tip row turned 90° about its axis over 0.5 s by one track (the row's place and its turn) and \
@@ -207,9 +203,7 @@ impl Experiment for Pareto {
                     compression, the cloth's buckle), `pbd` with per-sweep stiffness fractions, so their error \
                     includes the difference of models. A point is on the front when no other point of its family is \
                     both cheaper and more accurate. Points whose reference did not converge are not plotted."
-                .into(),
-            ..Section::default()
-        };
+                .into());
         let (fi, mi, si, ei, ci, ri) = (
             table.index("family")?,
             table.index("method")?,
@@ -233,11 +227,11 @@ impl Experiment for Pareto {
             methods.dedup();
             let mut series: Vec<Series> = methods
                 .iter()
-                .map(|m| Series {
-                    label: m.clone(),
-                    color: method_color(m),
-                    style: Style::Points,
-                    points: members.iter().filter(|&&i| table.rows[i][mi].text() == *m).map(|&i| point(i)).collect(),
+                .map(|m| {
+                    method_points(
+                        m,
+                        members.iter().filter(|&&i| table.rows[i][mi].text() == *m).map(|&i| point(i)).collect(),
+                    )
                 })
                 .collect();
             series.push(Series {

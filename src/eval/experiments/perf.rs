@@ -11,7 +11,7 @@ use super::super::chart::{Bars, method_color};
 use super::super::measure::{self, Stop};
 use super::super::report::{Section, bold};
 use super::super::table::{Column, Table, Value, computed, timed};
-use super::super::{EvalError, Experiment};
+use super::super::{About, EvalError, Experiment};
 use super::chart_ref;
 
 /// The experiment.
@@ -28,6 +28,9 @@ const COLUMNS: &[Column] = &[
     timed("speedup", ""),
 ];
 
+/// The experiment's name, title and columns.
+const ABOUT: About = About { name: "paper-perf", title: "The papers' timings beside ours", columns: COLUMNS };
+
 /// The modal paper's preprocessing time, s, and frame rate, 1/s.
 pub const PAPER_PRECOMPUTE: f64 = 18.0;
 /// The modal paper's frames per second.
@@ -36,16 +39,8 @@ pub const PAPER_FPS: f64 = 200.0;
 pub const PAPER_CLOTH_STEP: f64 = 1.014;
 
 impl Experiment for PaperPerf {
-    fn name(&self) -> &'static str {
-        "paper-perf"
-    }
-
-    fn title(&self) -> &'static str {
-        "The papers' timings beside ours"
-    }
-
-    fn columns(&self) -> &'static [Column] {
-        COLUMNS
+    fn about(&self) -> &'static About {
+        &ABOUT
     }
 
     fn cases(&self, _quick: bool) -> Vec<String> {
@@ -104,10 +99,9 @@ impl Experiment for PaperPerf {
     }
 
     fn report(&self, table: &Table, out: &Path) -> Result<Section, EvalError> {
-        let mut section = Section {
-            experiment: self.name().into(),
-            title: self.title().into(),
-            setup: "The modal-warping paper: dinosaur shell, 13,117 vertices, 4 modes, about 18 s of preprocessing \
+        let mut section = Section::new(
+            self.about(),
+            "The modal-warping paper: dinosaur shell, 13,117 vertices, 4 modes, about 18 s of preprocessing \
                     (Matlab eigs) and about 200 frames/s drawn in Maya (2007, Pentium D 3.46 GHz). The cloth paper: \
                     958 particles dropped on a ball, 1.014 s per step at h = 0.01 s (Core 2 Duo). Ours: the \
                     12,962-vertex `creature` with 4 modes (modal analysis computed afresh; then 600 MWTS steps under \
@@ -115,8 +109,7 @@ impl Experiment for PaperPerf {
                     Speed-up = the paper's time ÷ ours (or our rate ÷ the paper's); different machines 15–20 years \
                     apart, so the ratio says what the method costs today, not that the code is N× better."
                 .into(),
-            ..Section::default()
-        };
+        );
         let (qi, mi, vi, pi, si) = (
             table.index("quantity")?,
             table.index("method")?,

@@ -12,9 +12,9 @@ use crate::collision::Body;
 use crate::linalg::filtered_pcg::{self, Constraint, PcgReport, Stop};
 use crate::linalg::padded::PaddedMat3;
 use crate::scene::{MeshSource, Setup};
-use crate::solver::registry::{Footprint, Method};
 use crate::solver::wind::{self, Wind};
 use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Solver, SolverError, StepStats, check_finite};
+use crate::solver::{Footprint, Method};
 
 /// Registry entry of the triangle-mesh cloth (Noh & Jung).
 pub const CLOTH: Method = Method {
@@ -356,15 +356,7 @@ impl Solver for Cloth {
         self.steps += 1;
         let energy = spring_energy + self.system.particle_energy(&self.x, &self.v, &self.rest, self.gravity);
         check_finite(self.steps, self.time, &self.x, energy, self.energy_limit)?;
-        Ok(StepStats {
-            wall_seconds: start.elapsed().as_secs_f64(),
-            sim_time: self.time,
-            energy,
-            residual: report.residual,
-            iterations: report.iterations,
-            relative_residual: report.relative_residual,
-            converged: report.converged,
-        })
+        Ok(StepStats::solved(start, self.time, energy, &report))
     }
 
     fn positions(&self) -> &[DVec3] {

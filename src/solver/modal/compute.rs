@@ -115,8 +115,8 @@ pub fn system(problem: &ModalProblem<'_>) -> Result<ModalSystem, SolverError> {
     let mut fixed = vec![false; mesh.vertex_count()];
     problem.anchors.iter().for_each(|&a| fixed[a] = true);
     let dofs = DofMap::without(&fixed);
-    let mut k = BlockAssembler::for_shell(&shell, &dofs).map_err(numerical)?;
-    k.assemble_shell(&shell, mesh.positions(), HessianMode::Exact);
+    let mut k = shell.hessian_pattern(&dofs).map_err(numerical)?;
+    shell.assemble_hessian(&mut k, mesh.positions(), HessianMode::Exact);
     let mass: Vec<f64> = dofs.free_vertices().iter().flat_map(|&v| [problem.masses[v]; 3]).collect();
     let dim = mass.len().max(1);
     let mean_ratio = (0..mass.len()).map(|i| k_values_diag(&k, i) / mass[i]).sum::<f64>() / dim as f64;

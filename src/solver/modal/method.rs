@@ -23,10 +23,10 @@ use super::rotation_strain::RotationStrain;
 use crate::energy::ShellStiffness;
 use crate::mesh::TriMesh;
 use crate::scene::Setup;
-use crate::solver::registry::{Footprint, Method};
 use crate::solver::supersede::{Generation, unless_superseded};
 use crate::solver::wind::{self, Wind};
 use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
+use crate::solver::{Footprint, Method};
 
 /// Registry entry: linear modal analysis.
 pub const LMA: Method = Method {
@@ -271,7 +271,7 @@ impl ModalSolver {
     /// The wind on the shell as the last step left it (its velocity from the step before), projected
     /// onto the modes with the coming step's positions update, like gravity: held over a step, as the
     /// modal force always is. Calm air that was calm before costs nothing.
-    fn blow(&mut self) {
+    fn apply_wind(&mut self) {
         let calm = self.wind.is_calm();
         if calm && !self.blown {
             return;
@@ -390,7 +390,7 @@ impl Solver for ModalSolver {
         let start = Instant::now();
         self.poll_pending()?;
         self.follow_drags()?;
-        self.blow();
+        self.apply_wind();
         self.previous.copy_from_slice(self.dynamics.positions());
         self.dynamics.step(&self.params, &self.drags);
         self.steps += 1;

@@ -23,6 +23,7 @@
 use glam::DVec3;
 
 use crate::linalg::isa;
+use crate::linalg::real::V3;
 
 /// Coordinates of the rows under this magnitude are stored as zero, m (2⁻³⁰, about a nanometre).
 pub const FLUSHED: f64 = 1.0 / (1u64 << 30) as f64;
@@ -198,6 +199,24 @@ fn index(i: usize) -> u32 {
     debug_assert!(u32::try_from(i).is_ok(), "particle {i} beyond 32 bits");
     i as u32
 }
+
+/// What a batch's lanes read: each particle relative to the lane's first, and its inverse mass; the
+/// constants, and each constraint's multiplier and scaled compliance.
+pub(super) struct Read<N, const K: usize, const F: usize> {
+    /// The particles, relative to the first.
+    pub x: [V3<N>; K],
+    /// Their inverse masses.
+    pub w: [N; K],
+    /// The lane's constants.
+    pub constants: [N; CONSTANTS],
+    /// Each constraint's multiplier so far.
+    pub lambda: [N; F],
+    /// Each constraint's compliance over `h²`.
+    pub compliance: [N; F],
+}
+
+/// Each constraint's `Δλ` in a batch's lanes, and each particle's move (the sum of `w_i ∇_i C Δλ`).
+pub(super) type Projected<N, const K: usize, const F: usize> = ([N; F], [V3<N>; K]);
 
 #[cfg(test)]
 mod tests {

@@ -62,7 +62,7 @@ pub fn push_particle(p: &mut DVec3, w: f64, body: &mut Rigid, thickness: f64) ->
 /// while within `μ_s · pushed`, and shortened by `μ_k · pushed` otherwise. (Per sweep, the budget
 /// would be the sweep's own push, which the sweeps after the first hardly give: a cloth would creep
 /// off a ball its friction holds.)
-pub fn rub_particle(p: &mut DVec3, start: DVec3, w: f64, body: &mut Rigid, pushed: f64, h: f64, mu: (f64, f64)) {
+pub fn particle_friction(p: &mut DVec3, start: DVec3, w: f64, body: &mut Rigid, pushed: f64, h: f64, mu: (f64, f64)) {
     let (d, n) = body.surface(*p);
     let contact = *p - n * d;
     let slip = (*p - start) - body.velocity_at(contact) * h;

@@ -28,20 +28,20 @@
 //! Anchored and dragged particles have infinite mass (a dragged one is placed at its target).
 //! Collisions: `contact`; self-collision: `self_collision`; bodies: `bodies`; the parameters: `params`.
 
+#[cfg(target_arch = "x86_64")]
+mod avx2_lanes;
 mod batch;
 mod bodies;
 mod contact;
-#[cfg(target_arch = "x86_64")]
-mod eight;
-mod least;
 mod model;
-mod near;
+mod narrow_phase;
+mod near_least_area;
 mod params;
 mod project;
-mod scan;
 mod self_collision;
 mod self_contact;
-mod turn;
+mod triangle_scan;
+mod turned;
 
 use std::time::Instant;
 
@@ -56,9 +56,9 @@ use self::self_collision::SelfCollision;
 use crate::collision::Shape;
 use crate::energy::constraints;
 use crate::scene::Setup;
-use crate::solver::registry::{Footprint, Method};
 use crate::solver::wind::Wind;
 use crate::solver::{DragKind, DragSet, ParamValue, Solver, SolverError, StepStats, check_finite};
+use crate::solver::{Footprint, Method};
 
 /// Refuse a cloth that starts deep inside a collider that stands still (deeper than a tenth
 /// of its size): its projection out would launch it at metres per step, crumple it onto itself and
@@ -137,7 +137,7 @@ pub struct Pbd {
     /// for the scan of which triangles start a substep near the least; and those triangles (scratch).
     least_area: f64,
     double_areas: Vec<f64>,
-    areas: least::Areas,
+    areas: near_least_area::Areas,
     shrunk: Vec<u32>,
     stiffness: (f64, f64),
     compliance: (Option<f64>, Option<f64>),
@@ -214,7 +214,7 @@ impl Pbd {
             thickness,
             k_pressure: check("k_pressure", m.k_pressure.unwrap_or(0.0))?,
             least_area: check("least_area", s.least_area.unwrap_or(0.0))?,
-            areas: least::Areas::new(&model.triangles, &double_areas),
+            areas: near_least_area::Areas::new(&model.triangles, &double_areas),
             double_areas,
             shrunk: Vec::new(),
             stiffness: (check("pbd_stretch", m.pbd_stretch)?, check("pbd_bend", m.pbd_bend)?),
@@ -357,7 +357,7 @@ impl Pbd {
         for touch in self.touches.iter().filter(|t| t.pushed > 0.0) {
             let i = touch.particle;
             let body = &mut self.bodies[touch.body];
-            contact::rub_particle(&mut self.p[i], self.x[i], self.w[i], body, touch.pushed, h, self.mu);
+            contact::particle_friction(&mut self.p[i], self.x[i], self.w[i], body, touch.pushed, h, self.mu);
         }
         if self.least_area > 0.0 {
             project::least_area(

@@ -13,7 +13,7 @@
 //!
 //! The sweeps take them eight at a time where the CPU has AVX2, in single precision ([`Lanes32`], with
 //! fused multiply-adds), from batches packed once ([`super::batch`]), moving the particles' rows —
-//! positions in single precision — in and out of the lanes as [`super::eight`] says; the constraint
+//! positions in single precision — in and out of the lanes as [`super::avx2_lanes`] says; the constraint
 //! functions — the same source the scalar ones are ([`Real`]) — run on all lanes at once. The
 //! kernel is compiled with AVX-512's 32 registers where the CPU has them ([`crate::linalg::isa::eight`]),
 //! indexes the rows by masked indices (no bounds checks) and writes every lane of a batch, the ones
@@ -29,7 +29,7 @@ use std::marker::PhantomData;
 
 use glam::DVec3;
 
-use super::batch::{Batches, CONSTANTS, Indexed, LANES, Row, Rows};
+use super::batch::{Batches, Indexed, LANES, Projected, Read, Row, Rows};
 use super::model::{Edge, Model, StretchBend};
 use crate::energy::constraints;
 use crate::linalg::real::{self, Lanes32, Real, V3};
@@ -211,24 +211,6 @@ impl Lane<4, 2> for StretchBend {
     }
 }
 
-/// What a batch's lanes read: each particle relative to the lane's first, and its inverse mass; the
-/// constants, and each constraint's multiplier and scaled compliance.
-pub(super) struct Read<N, const K: usize, const F: usize> {
-    /// The particles, relative to the first.
-    pub x: [V3<N>; K],
-    /// Their inverse masses.
-    pub w: [N; K],
-    /// The lane's constants.
-    pub constants: [N; CONSTANTS],
-    /// Each constraint's multiplier so far.
-    pub lambda: [N; F],
-    /// Each constraint's compliance over `h²`.
-    pub compliance: [N; F],
-}
-
-/// Each constraint's `Δλ` in a batch's lanes, and each particle's move (the sum of `w_i ∇_i C Δλ`).
-pub(super) type Projected<N, const K: usize, const F: usize> = ([N; F], [V3<N>; K]);
-
 /// Below this fraction of `max w · Σ |∇C|²`, `Σ w |∇C|²` says the movable particles cannot change the
 /// constraint (their gradient is single-precision rounding, about 1e-7 of the whole, squared 1e-14);
 /// above it, a particle's move `C/|∇C|` stays within 1e4 × the constraint's own scale.
@@ -331,7 +313,7 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> crate::linalg::isa:
         let Sweep { rows: Indexed { rows, mask }, lambda, first, last, compliance, rule } = kernel.sweep;
         // Sliced to the mask, so that indices masked by it need no bounds checks.
         let rows = &mut rows[..=mask];
-        let eight = super::eight::Eight::new(simd, compliance, (first, last));
+        let eight = super::avx2_lanes::Eight::new(simd, compliance, (first, last));
         let batches = &kernel.batches.batches;
         // Two batches of a colour at a time, read before either is projected: their arithmetic is
         // independent, and the processor overlaps the two chains of long-latency roots and divisions.
@@ -356,12 +338,12 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> crate::linalg::isa:
     }
 }
 
-/// Keep each triangle's area, seen along its unit normal at the substep's start `x`, at least `least`
+/// Keep each triangle's area, seen along its unit normal at the substep's start `x`, at least `near_least_area`
 /// times its rest area (`double_areas`: twice each rest area): the hard inequality
 /// `N·n̂₀ − least·2A₀ ≥ 0` ([`constraints::area_along`]). Edges alone let a triangle squeezed in its
 /// plane collapse and turn over, laying its neighbours over each other (the hanging sheet's clips do
 /// that at 8–12 substeps of one sweep). Only triangles that start the substep within twice the least
-/// area are looked at (they are among `listed`, [`super::least::Areas::under`], which may list a few
+/// area are looked at (they are among `listed`, [`super::near_least_area::Areas::under`], which may list a few
 /// more): another would have to lose half its area within the substep to end it under the least, and
 /// would then be looked at from the next substep's start, before it could turn over. (Beside the
 /// hanging sheet's clips at 8 × 1 some triangles do lose half their area within a substep: a list made

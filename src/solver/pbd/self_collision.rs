@@ -77,9 +77,9 @@ use glam::DVec3;
 #[cfg(any(doc, test))]
 use super::batch::Rows;
 use super::batch::{Indexed, Row};
-use super::near::Near;
+use super::narrow_phase::Near;
 use super::self_contact::{self, EdgePair, Pair, over};
-use super::turn::Watch;
+use super::turned::Watch;
 use crate::collision::bvh::{Leaf, Tilt, TriangleTree};
 use crate::collision::closest::segment_gap;
 use crate::collision::fans::Fans;
@@ -92,7 +92,7 @@ const TILT: f64 = 5.0 * std::f64::consts::PI / 180.0;
 const MOST_STRETCH: f64 = 4.0;
 
 /// Searches this many substeps apart or nearer are too frequent: the margins are stretched.
-const SOON: u32 = 4;
+const TOO_SOON: u32 = 4;
 
 /// A search that lists more pairs than this fraction of the vertices brings the margins back to one
 /// substep's travel.
@@ -210,7 +210,7 @@ impl SelfCollision {
             let listed = (self.pairs.len() + self.edge_pairs.len()) as f64;
             if listed > FEW_PAIRS * x.len() as f64 {
                 self.stretch = 1.0;
-            } else if self.since <= SOON {
+            } else if self.since <= TOO_SOON {
                 self.stretch = (2.0 * self.stretch).min(MOST_STRETCH);
             }
             self.since = 0;

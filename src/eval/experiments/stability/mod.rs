@@ -31,7 +31,7 @@ use super::super::chart::{Cell, MapPanel, Maps};
 use super::super::measure::{Outcome, Run};
 use super::super::report::{Section, bold, bold_percent, number};
 use super::super::table::{Column, Table, Value, computed, timed};
-use super::super::{EvalError, Experiment};
+use super::super::{About, EvalError, Experiment};
 use super::chart_ref;
 use crate::solver::SolverError;
 
@@ -55,6 +55,9 @@ const COLUMNS: &[Column] = &[
     computed("failed_at", ""),
     timed("cost", "s/s"),
 ];
+
+/// The experiment's name, title and columns.
+const ABOUT: About = About { name: "stability", title: "Stability maps: where each method fails", columns: COLUMNS };
 
 /// Relative displacement error above which a run that did not fail is *inaccurate*.
 pub const ERROR_THRESHOLD: f64 = 0.1;
@@ -238,16 +241,8 @@ fn middle(a: f64, b: f64, integer: bool) -> Option<f64> {
 }
 
 impl Experiment for Stability {
-    fn name(&self) -> &'static str {
-        "stability"
-    }
-
-    fn title(&self) -> &'static str {
-        "Stability maps: where each method fails"
-    }
-
-    fn columns(&self) -> &'static [Column] {
-        COLUMNS
+    fn about(&self) -> &'static About {
+        &ABOUT
     }
 
     fn cases(&self, quick: bool) -> Vec<String> {
@@ -323,10 +318,9 @@ impl Experiment for Stability {
     }
 
     fn report(&self, table: &Table, out: &Path) -> Result<Section, EvalError> {
-        let mut section = Section {
-            experiment: self.name().into(),
-            title: self.title().into(),
-            setup: format!(
+        let mut section = Section::new(
+            self.about(),
+            format!(
                 "Five families of sweeps, each cell one run. `step`: {} `drag`: {} `pile`, `box`, `impact`: {} \
                  Classes: diverged (the solver's own message); tunnelled (a particle or an edge's midpoint deeper than \
                  half an edge inside a collider, the cloth through itself by an exact test, a dynamic body below the cloth, or \
@@ -338,8 +332,7 @@ impl Experiment for Stability {
                 drag::SETUP,
                 contact::SETUP
             ),
-            ..Section::default()
-        };
+        );
         let columns = Columns::of(table)?;
         for family in &FAMILIES {
             let panels = panels(table, &columns, family.name);

@@ -1,13 +1,13 @@
 //! Which triangles start a substep near their least area ([`super::project::least_area`]): those
 //! whose area, at the substep's start, is under twice the least. The test runs every substep over
 //! every triangle, eight at a time in single precision from the rows of the substep's start
-//! ([`super::scan`]), and the bound on the rounding of a normal ([`scan::rounded_normal`]) keeps every
+//! ([`super::triangle_scan`]), and the bound on the rounding of a normal ([`triangle_scan::rounded_normal`]) keeps every
 //! triangle the exact test would keep: it lists a triangle when its area might be under twice the
 //! least, and the projection tests the listed ones again in double precision. (Tested one at a time
 //! in double precision, it took 7% of the 10,000-particle hanging sheet's frame.)
 
 use super::batch::{Batch, CONSTANTS, Indexed, Row};
-use super::scan;
+use super::triangle_scan;
 use crate::linalg::real::{self, Real, V3};
 
 /// The cloth's triangles with twice their rest areas (each its first constant), eight to a batch in
@@ -21,14 +21,16 @@ impl Areas {
     /// These triangles, with twice their rest areas.
     pub fn new(triangles: &[[usize; 3]], double_areas: &[f64]) -> Self {
         Self {
-            batches: scan::pack(triangles.iter().zip(double_areas).map(|(t, &a)| (t.map(|i| i as u32), [a, 0.0, 0.0]))),
+            batches: triangle_scan::pack(
+                triangles.iter().zip(double_areas).map(|(t, &a)| (t.map(|i| i as u32), [a, 0.0, 0.0])),
+            ),
         }
     }
 
     /// Into `found` (cleared first), in order, every triangle whose area at `rows` is under `twice`
     /// its least, as a fraction of its rest area (maybe also some whose area is a little over).
     pub fn under(&self, rows: Indexed<&[Row]>, twice: f64, found: &mut Vec<u32>) {
-        scan::failing(&self.batches, [rows], Roomy(twice), true, found);
+        triangle_scan::failing(&self.batches, [rows], Roomy(twice), true, found);
     }
 }
 
@@ -37,10 +39,10 @@ impl Areas {
 #[derive(Debug, Clone, Copy)]
 struct Roomy(f64);
 
-impl scan::Test<1> for Roomy {
+impl triangle_scan::Test<1> for Roomy {
     #[inline(always)]
     fn margin<N: Real>(&self, [c]: [[V3<N>; 3]; 1], [rest, _, _]: [N; CONSTANTS]) -> N {
-        let (n, error) = scan::rounded_normal(c);
+        let (n, error) = triangle_scan::rounded_normal(c);
         let least = rest.constant(self.0) * rest + error;
         real::dot(n, n) - least * least
     }
@@ -58,7 +60,7 @@ mod tests {
         let mut rows = Rows::default();
         rows.fill(y, &vec![1.0; y.len()]);
         let mut found = Vec::new();
-        scan::failing(&areas.batches, [rows.indexed()], Roomy(twice), fastest, &mut found);
+        triangle_scan::failing(&areas.batches, [rows.indexed()], Roomy(twice), fastest, &mut found);
         found
     }
 

@@ -8,8 +8,7 @@ use std::arch::x86_64::{__m256, __m256d};
 use pulp::cast;
 use pulp::x86::V3;
 
-use super::batch::{Batch, CONSTANTS, Indexed, LANES, Row};
-use super::project::{Projected, Read};
+use super::batch::{Batch, CONSTANTS, Indexed, LANES, Projected, Read, Row};
 use crate::linalg::real::Lanes32;
 
 /// A batch's rows as read, particle slot by slot: registers of x, y, z and inverse mass.

@@ -3,15 +3,15 @@
 //!
 //! The test runs every substep over every triangle of the cloth, at the substep's start and its
 //! predicted end, eight triangles at a time in single precision, at both positions at once
-//! ([`super::scan`]). Rounding cannot pass a triangle that has turned too far: the test is for an
+//! ([`super::triangle_scan`]). Rounding cannot pass a triangle that has turned too far: the test is for an
 //! angle a hundredth of a radian (0.57°) under the limit, and a triangle passes only if the rounding
 //! of its normal (bounded from its corners' distance from the rows' origin and its edges,
-//! [`scan::rounded_normal`]) is under half of that.
+//! [`triangle_scan::rounded_normal`]) is under half of that.
 
 use glam::DVec3;
 
 use super::batch::{Batch, CONSTANTS, Indexed, LANES, Row};
-use super::scan;
+use super::triangle_scan;
 use crate::linalg::real::{self, Real, V3};
 
 /// How much under the limit the single-precision test holds its triangles, radians.
@@ -27,7 +27,7 @@ pub struct Watch {
 impl Watch {
     /// Watch these triangles, with their unit normals now.
     pub fn new(triangles: impl IntoIterator<Item = ([u32; 3], DVec3)>) -> Self {
-        Self { batches: scan::pack(triangles.into_iter().map(|(t, n)| (t, n.to_array()))) }
+        Self { batches: triangle_scan::pack(triangles.into_iter().map(|(t, n)| (t, n.to_array()))) }
     }
 
     /// Take triangle `t`'s unit normal now (its lane, and the lanes after it that repeat it).
@@ -60,10 +60,10 @@ impl Watch {
     fn check(&self, rows: [Indexed<&[Row]>; 2], angle: f64, fastest: bool, turned: &mut Vec<u32>) {
         if rows[0].mask != rows[1].mask {
             turned.clear();
-            turned.extend(self.batches.iter().enumerate().flat_map(|(b, batch)| scan::lanes(b, batch, 0xff)));
+            turned.extend(self.batches.iter().enumerate().flat_map(|(b, batch)| triangle_scan::lanes(b, batch, 0xff)));
             return;
         }
-        scan::failing(&self.batches, rows, Turn::new(angle), fastest, turned);
+        triangle_scan::failing(&self.batches, rows, Turn::new(angle), fastest, turned);
     }
 }
 
@@ -85,7 +85,7 @@ impl Turn {
     #[inline(always)]
     fn margin<N: Real>(&self, c: [V3<N>; 3], normal: V3<N>) -> N {
         let zero = c[0][0].constant(0.0);
-        let (n, error) = scan::rounded_normal(c);
+        let (n, error) = triangle_scan::rounded_normal(c);
         let (along, length2) = (real::dot(n, normal), real::dot(n, n));
         let within = along * along - zero.constant(self.cos2) * length2;
         let exact = zero.constant(self.sin2) * length2 - error * error;
@@ -94,7 +94,7 @@ impl Turn {
     }
 }
 
-impl scan::Test<2> for Turn {
+impl triangle_scan::Test<2> for Turn {
     /// Positive where the triangle has turned by less than the tested angle at both ends.
     #[inline(always)]
     fn margin<N: Real>(&self, [start, end]: [[V3<N>; 3]; 2], normal: [N; CONSTANTS]) -> N {

@@ -1,8 +1,8 @@
 //! Tests run every substep over every triangle of the cloth — the watch's for turning
-//! ([`super::turn`]) and the least area's for shrinking ([`super::least`]) — so they take eight
+//! ([`super::turned`]) and the least area's for shrinking ([`super::near_least_area`]) — so they take eight
 //! triangles at a time where the CPU has AVX2, in single precision, from the rows the sweeps read
 //! ([`super::batch::Rows`]: positions rounded once, relative to the first particle), each batch's
-//! corners loaded as the sweeps load theirs ([`super::eight`]). A CPU without AVX2 runs the same
+//! corners loaded as the sweeps load theirs ([`super::avx2_lanes`]). A CPU without AVX2 runs the same
 //! arithmetic one triangle at a time.
 
 use super::batch::{Batch, Batches, CONSTANTS, Indexed, LANES, Packable, Row};
@@ -128,7 +128,7 @@ impl<T: Test<R>, const R: usize> crate::linalg::isa::Eight for Eight<'_, T, R> {
             let (mut c, mut constants) = ([[[zero; 3]; 3]; R], [zero; CONSTANTS]);
             for (j, ids) in b.ids.iter().enumerate() {
                 for (c, rows) in c.iter_mut().zip(&rows) {
-                    let [x, y, z, _] = super::eight::gather(simd, rows.rows, rows.mask, ids);
+                    let [x, y, z, _] = super::avx2_lanes::gather(simd, rows.rows, rows.mask, ids);
                     c[j] = [Lanes32 { simd, v: cast(x) }, Lanes32 { simd, v: cast(y) }, Lanes32 { simd, v: cast(z) }];
                 }
             }
