@@ -404,6 +404,7 @@ fn the_reader_sees_the_edges_it_must() {
             "cli/scenes.rs",
             "cli/sim.rs",
             "cli/view.rs",
+            "energy/fd.rs",
             "energy/tests.rs",
             "main.rs"
         ]

@@ -43,7 +43,7 @@ fn every_builtin_scene_renders_shaded_and_matches_its_reference() {
         // The rest shape (rigid method, no steps): the reference pins the view and the shading, not the physics.
         let setup = scene::load(name, &["solver.method=rigid".into()]).unwrap_or_else(|e| panic!("{name}: {e}"));
         let view = SceneView::new(&setup);
-        let frame = view.frame(view.camera(), setup.mesh.positions(), 0.0, &[], ViewOptions { wireframe: false });
+        let frame = view.frame(view.camera(), setup.mesh.positions(), 0.0, &[], ViewOptions { wireframe: false }, &[]);
         let image = headless.render(&frame).unwrap_or_else(|e| panic!("{name}: {e}"));
         let rect = shell_rect(&view, &setup);
         // The shell is in the picture, and most of its rectangle is the shell (not background).

@@ -151,25 +151,13 @@ impl SceneView {
         self.camera
     }
 
-    /// The frame for the simulated `positions` at simulated time `time` (which places moving
-    /// colliders) with these drags, seen by `camera`.
-    pub fn frame(
-        &self,
-        camera: Camera,
-        positions: &[DVec3],
-        time: f64,
-        drags: &[(DragId, Drag)],
-        options: ViewOptions,
-    ) -> Frame {
-        self.frame_with_bodies(camera, positions, time, drags, options, &[])
-    }
-
-    /// [`SceneView::frame`] with the colliders at the poses a solver reports ([`Solver::body_poses`],
-    /// in the scene's order; empty: every collider by its scripted motion, dynamic ones where they
-    /// start).
+    /// The frame for the simulated `positions` at simulated time `time` with these drags, seen by
+    /// `camera`, and the colliders at the poses a solver reports ([`Solver::body_poses`], in the
+    /// scene's order; empty: every collider by its scripted motion, which places moving ones, and
+    /// dynamic ones where they start).
     ///
     /// [`Solver::body_poses`]: crate::solver::Solver::body_poses
-    pub fn frame_with_bodies(
+    pub fn frame(
         &self,
         camera: Camera,
         positions: &[DVec3],
@@ -296,7 +284,7 @@ mod tests {
         let creature = crate::scene::load("creature", &[]).unwrap();
         let view = SceneView::new(&creature);
         let options = ViewOptions { wireframe: false };
-        let frame = view.frame_with_bodies(view.camera(), cantilever.mesh.positions(), 0.0, &[], options, &[]);
+        let frame = view.frame(view.camera(), cantilever.mesh.positions(), 0.0, &[], options, &[]);
         let shell = frame.meshes.iter().find(|m| m.positions.len() == creature.mesh.vertex_count()).unwrap();
         assert_eq!(shell.positions[7], f32x3(creature.mesh.positions()[7]));
         assert!(frame.meshes.iter().all(|m| m.triangles.iter().flatten().all(|&i| (i as usize) < m.positions.len())));

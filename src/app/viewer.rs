@@ -415,7 +415,7 @@ impl Running {
         let paint = self.panel(&snapshot);
         let camera = self.orbit.camera();
         let options_view = ViewOptions { wireframe: self.panel.wireframe };
-        let mut frame = self.view.frame_with_bodies(
+        let mut frame = self.view.frame(
             camera,
             &snapshot.positions,
             snapshot.stats.sim_time,

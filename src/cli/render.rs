@@ -61,8 +61,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let options = ViewOptions { wireframe: args.wireframe };
     let mut picture = |solver: &dyn solver::Solver, time: f64, path: &std::path::Path| -> anyhow::Result<()> {
         let drags: Vec<_> = solver.drags().iter().copied().collect();
-        let frame =
-            view.frame_with_bodies(view.camera(), solver.positions(), time, &drags, options, &solver.body_poses());
+        let frame = view.frame(view.camera(), solver.positions(), time, &drags, options, &solver.body_poses());
         let image = headless.render(&frame).context("rendering")?;
         // Written to a temporary file and renamed: an interrupted run leaves no partial PNG under a final
         // name. The error names the file already.

@@ -40,6 +40,30 @@ impl Shape {
             Shape::Cuboid { half } => box_surface(*half, p),
         }
     }
+
+    /// The principal moments of inertia of a solid of this shape and `mass`, kg m², in the body
+    /// frame: `2/5 m r²` for a ball, `m (b² + c²)/12` about each axis of a box of sides `a, b, c`;
+    /// `None` for the shapes that cannot move (a plane, a mesh).
+    pub fn inertia(&self, mass: f64) -> Option<DVec3> {
+        match self {
+            Shape::Sphere { radius } => Some(DVec3::splat(0.4 * mass * radius * radius)),
+            Shape::Cuboid { half } => {
+                let s = *half * 2.0;
+                Some(DVec3::new(s.y * s.y + s.z * s.z, s.x * s.x + s.z * s.z, s.x * s.x + s.y * s.y) * (mass / 12.0))
+            }
+            Shape::Plane { .. } | Shape::Mesh(_) => None,
+        }
+    }
+
+    /// The radius of the smallest ball about the origin that holds the shape, m; `None` for the
+    /// unbounded plane and for a mesh (whose points are not centred on the origin).
+    pub fn bounding_radius(&self) -> Option<f64> {
+        match self {
+            Shape::Sphere { radius } => Some(*radius),
+            Shape::Cuboid { half } => Some(half.length()),
+            Shape::Plane { .. } | Shape::Mesh(_) => None,
+        }
+    }
 }
 
 /// Signed distance and outward normal of a box of half extents `half` at `p`: outside, the distance

@@ -143,53 +143,24 @@ pub fn point_triangle(q: DVec3, p: [DVec3; 3], thickness: f64, sign: f64) -> (f6
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A deterministic pseudo-random generator (no dependency for a test).
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        }
-        fn vec(&mut self) -> DVec3 {
-            DVec3::new(self.next(), self.next(), self.next())
-        }
-    }
-
-    /// Central differences of `f` at `x` in every coordinate, against `grad`: the largest error
-    /// relative to the gradient's norm.
-    fn check(x: &[DVec3], grad: &[DVec3], f: impl Fn(&[DVec3]) -> f64) -> f64 {
-        let h = 1e-6;
-        let scale = grad.iter().map(|g| g.length_squared()).sum::<f64>().sqrt().max(1e-12);
-        let mut worst: f64 = 0.0;
-        for i in 0..x.len() {
-            for k in 0..3 {
-                let (mut plus, mut minus) = (x.to_vec(), x.to_vec());
-                plus[i][k] += h;
-                minus[i][k] -= h;
-                let fd = (f(&plus) - f(&minus)) / (2.0 * h);
-                worst = worst.max((fd - grad[i][k]).abs() / scale);
-            }
-        }
-        worst
-    }
+    use crate::energy::fd::{self, Rng};
 
     #[test]
     fn stretch_gradient_matches_finite_differences() {
-        let mut rng = Lcg(1);
+        let mut rng = Rng(1);
         for _ in 0..20 {
             let x = [rng.vec(), rng.vec()];
             let (_, g) = stretch(x[0], x[1], 0.3);
-            let e = check(&x, &g, |y| stretch(y[0], y[1], 0.3).0);
+            let e = fd::errors(&x, |y| stretch(y[0], y[1], 0.3).0, |_| g.to_vec(), None).0;
             assert!(e < 1e-6, "{e}");
         }
     }
 
     #[test]
     fn bending_gradient_matches_finite_differences_near_flat_near_pi_and_with_a_curved_rest() {
-        let mut rng = Lcg(2);
+        let mut rng = Rng(2);
         // A hinge folded to angle `phi` about the x axis, slightly perturbed.
-        let folded = |phi: f64, rng: &mut Lcg| {
+        let folded = |phi: f64, rng: &mut Rng| {
             let (a, b) = (DVec3::ZERO, DVec3::X);
             let c = DVec3::new(0.4, 1.0, 0.0);
             let d = DVec3::new(0.6, -phi.cos(), phi.sin());
@@ -203,18 +174,18 @@ mod tests {
             let theta = hinge::angle(&x);
             let wrapped = hinge::wrapped_difference(theta, rest.sin.atan2(rest.cos));
             assert!((c - wrapped).abs() < 1e-14, "{c} against θ − θ̄ = {wrapped}");
-            let e = check(&x, &g, |y| bending(&[y[0], y[1], y[2], y[3]], rest).0);
+            let e = fd::errors(&x, |y| bending(&[y[0], y[1], y[2], y[3]], rest).0, |_| g.to_vec(), None).0;
             assert!(e < 1e-6, "angle {phi}, rest {rest:?}: {e}");
         }
     }
 
     #[test]
     fn the_vector_friendly_arctangent_agrees_with_the_library_one() {
-        let mut rng = Lcg(7);
+        let mut rng = Rng(7);
         let mut worst: f64 = 0.0;
         for k in 0..200_000 {
             let scale = 10f64.powi(k % 9 - 4);
-            let (y, x) = (rng.next() * scale, rng.next() * scale);
+            let (y, x) = (rng.uniform() * scale, rng.uniform() * scale);
             worst = worst.max((atan2(y, x) - y.atan2(x)).abs());
         }
         for (y, x) in
@@ -228,7 +199,8 @@ mod tests {
         let single = |v: f64| crate::linalg::real::Lanes32 { simd: pulp::Scalar::new(), v: v as f32 };
         let mut worst: f64 = 0.0;
         for k in 0..200_000 {
-            let (y, x) = (f64::from(single(rng.next()).v), f64::from(single(rng.next() * 10f64.powi(k % 5 - 2)).v));
+            let (y, x) =
+                (f64::from(single(rng.uniform()).v), f64::from(single(rng.uniform() * 10f64.powi(k % 5 - 2)).v));
             let got = f64::from(atan2(single(y), single(x)).v);
             worst = worst.max((got - y.atan2(x)).abs() / (f64::from(f32::EPSILON) * y.atan2(x).abs().max(1e-30)));
         }
@@ -244,21 +216,21 @@ mod tests {
         let tris: Vec<[usize; 3]> = quads.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
         let mut g = vec![DVec3::ZERO; 8];
         assert!((six_volume(&v, &tris, &mut g) - 6.0).abs() < 1e-12, "six times the unit volume");
-        let mut rng = Lcg(3);
+        let mut rng = Rng(3);
         let x: Vec<DVec3> = v.iter().map(|p| *p + rng.vec() * 0.1).collect();
         six_volume(&x, &tris, &mut g);
-        let e = check(&x, &g, |y| six_volume(y, &tris, &mut [DVec3::ZERO; 8]));
+        let e = fd::errors(&x, |y| six_volume(y, &tris, &mut [DVec3::ZERO; 8]), |_| g.to_vec(), None).0;
         assert!(e < 1e-6, "{e}");
     }
 
     #[test]
     fn area_along_gradient_matches_finite_differences_and_turns_negative_when_the_triangle_turns_over() {
-        let mut rng = Lcg(5);
+        let mut rng = Rng(5);
         for _ in 0..20 {
             let x = [rng.vec(), rng.vec(), rng.vec()];
             let axis = rng.vec().normalize();
             let (_, g) = area_along(x, axis);
-            let e = check(&x, &g, |y| area_along([y[0], y[1], y[2]], axis).0);
+            let e = fd::errors(&x, |y| area_along([y[0], y[1], y[2]], axis).0, |_| g.to_vec(), None).0;
             assert!(e < 1e-6, "{e}");
         }
         // The unit right triangle in the xz plane, seen from +y: twice its area is 1, turned over −1.
@@ -269,12 +241,13 @@ mod tests {
 
     #[test]
     fn point_triangle_gradient_matches_finite_differences_on_both_sides() {
-        let mut rng = Lcg(4);
+        let mut rng = Rng(4);
         for sign in [1.0, -1.0] {
             for _ in 0..20 {
                 let x = [rng.vec(), rng.vec(), rng.vec(), rng.vec()];
                 let (_, g) = point_triangle(x[0], [x[1], x[2], x[3]], 0.01, sign);
-                let e = check(&x, &g, |y| point_triangle(y[0], [y[1], y[2], y[3]], 0.01, sign).0);
+                let e =
+                    fd::errors(&x, |y| point_triangle(y[0], [y[1], y[2], y[3]], 0.01, sign).0, |_| g.to_vec(), None).0;
                 assert!(e < 1e-6, "{e}");
             }
         }

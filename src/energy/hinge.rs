@@ -149,6 +149,7 @@ pub fn wrapped_difference(theta: f64, rest: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::energy::fd::Rng;
 
     /// The dihedral angle with its gradient and Hessian.
     #[derive(Debug, Clone, Copy, PartialEq)]
@@ -179,20 +180,6 @@ mod tests {
     fn cross_matrix_is_the_cross_product() {
         let (a, b) = (DVec3::new(0.3, -1.2, 2.0), DVec3::new(-0.7, 0.4, 1.1));
         assert!((cross_matrix(a) * b - a.cross(b)).length() < 1e-15);
-    }
-
-    /// A small deterministic generator (xorshift) so the tests need no extra crate.
-    pub(crate) struct Rng(pub u64);
-    impl Rng {
-        pub fn uniform(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        }
-        pub fn vec(&mut self) -> DVec3 {
-            DVec3::new(self.uniform(), self.uniform(), self.uniform())
-        }
     }
 
     /// A hinge along x with wings at fold angles chosen so that θ ≈ `theta`, then jittered.

@@ -16,4 +16,6 @@ pub use error::EnergyError;
 pub use shell::{DiscreteShell, EnergyTerms, HessianMode, ShellStiffness};
 
 #[cfg(test)]
+pub(crate) mod fd;
+#[cfg(test)]
 mod tests;

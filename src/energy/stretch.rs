@@ -94,52 +94,24 @@ pub(crate) fn unpack<const K: usize>(lower: &[DMat3]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::energy::fd::{self, Rng};
 
-    fn rng(seed: &mut u64) -> f64 {
-        *seed ^= *seed << 13;
-        *seed ^= *seed >> 7;
-        *seed ^= *seed << 17;
-        (*seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-
-    /// Relative max-norm error of FD gradient (from values) and FD Hessian (from gradients).
+    /// The relative errors of the central differences of `f`'s value and gradient (see [`fd`]).
     fn fd_check<const V: usize, const M: usize>(
         x: [DVec3; V],
         f: impl Fn(&[DVec3; V]) -> (f64, [DVec3; V], [DMat3; M]),
     ) -> (f64, f64) {
-        let n = 3 * V;
-        let h = 1e-6;
-        let (_, g, lower) = f(&x);
-        let hess = unpack::<V>(&lower);
-        let (mut ge, mut gr, mut he, mut hr) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-        for p in 0..V {
-            for i in 0..3 {
-                let (mut xp, mut xm) = (x, x);
-                xp[p][i] += h;
-                xm[p][i] -= h;
-                let (vp, gp, _) = f(&xp);
-                let (vm, gm, _) = f(&xm);
-                ge = ge.max(((vp - vm) / (2.0 * h) - g[p][i]).abs());
-                gr = gr.max(g[p][i].abs());
-                for q in 0..V {
-                    for j in 0..3 {
-                        let fd = (gp[q][j] - gm[q][j]) / (2.0 * h);
-                        // Row 3q + j, column 3p + i.
-                        he = he.max((fd - hess[(3 * p + i) * n + 3 * q + j]).abs());
-                        hr = hr.max(hess[(3 * p + i) * n + 3 * q + j].abs());
-                    }
-                }
-            }
-        }
-        (ge / gr, he / hr)
+        let at = |y: &[DVec3]| f(&<[DVec3; V]>::try_from(y).expect("V points"));
+        let hessian = unpack::<V>(&f(&x).2);
+        fd::errors(&x, |y| at(y).0, |y| at(y).1.to_vec(), Some(&hessian))
     }
 
     #[test]
     fn edge_derivatives_match_finite_differences() {
-        let mut s = 7u64;
+        let mut r = Rng(7);
         for _ in 0..20 {
-            let x = [DVec3::new(rng(&mut s), rng(&mut s), rng(&mut s)), DVec3::new(rng(&mut s), 2.0, rng(&mut s))];
-            let rest = 1.5 + rng(&mut s);
+            let x = [DVec3::new(r.uniform(), r.uniform(), r.uniform()), DVec3::new(r.uniform(), 2.0, r.uniform())];
+            let rest = 1.5 + r.uniform();
             let (g, h) = fd_check(x, |x| edge(x[0], x[1], rest, false));
             assert!(g < 1e-6 && h < 1e-6, "edge FD errors {g:e} {h:e}");
         }
@@ -147,14 +119,14 @@ mod tests {
 
     #[test]
     fn triangle_derivatives_match_finite_differences() {
-        let mut s = 11u64;
+        let mut r = Rng(11);
         for _ in 0..20 {
             let x = [
-                DVec3::new(rng(&mut s), rng(&mut s), rng(&mut s)),
-                DVec3::new(2.0 + rng(&mut s), rng(&mut s), rng(&mut s)),
-                DVec3::new(rng(&mut s), 2.0 + rng(&mut s), rng(&mut s)),
+                DVec3::new(r.uniform(), r.uniform(), r.uniform()),
+                DVec3::new(2.0 + r.uniform(), r.uniform(), r.uniform()),
+                DVec3::new(r.uniform(), 2.0 + r.uniform(), r.uniform()),
             ];
-            let rest = 1.0 + 0.5 * rng(&mut s);
+            let rest = 1.0 + 0.5 * r.uniform();
             let (g, h) = fd_check(x, |x| triangle(x, rest));
             assert!(g < 1e-6 && h < 1e-6, "triangle FD errors {g:e} {h:e}");
             let (a, ga) = area_gradient(&x);

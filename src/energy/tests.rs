@@ -4,22 +4,10 @@ use std::collections::HashMap;
 
 use glam::{DQuat, DVec3};
 
+use super::fd::{self, Rng};
 use super::{DiscreteShell, HessianMode, ShellStiffness};
 use crate::linalg::DofMap;
 use crate::mesh::{TriMesh, generate};
-
-struct Rng(u64);
-impl Rng {
-    fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-    fn vec(&mut self) -> DVec3 {
-        DVec3::new(self.uniform(), self.uniform(), self.uniform())
-    }
-}
 
 /// An irregular, curved rest shape: a jittered 5 × 4 grid folded 70° about the line x = 0.1, with a
 /// bump, so rest angles are non-zero and of both signs.
@@ -81,34 +69,15 @@ fn dense_hessian(shell: &DiscreteShell, x: &[DVec3], mode: HessianMode) -> Vec<V
     asm.to_dense()
 }
 
-/// Max relative errors of the FD gradient (from energies) and FD Hessian (from gradients).
+/// Relative errors of the FD gradient (from energies) and FD Hessian (from gradients), see [`fd`].
 fn fd_errors(shell: &DiscreteShell, x: &[DVec3]) -> (f64, f64) {
-    let n = x.len();
-    let h = 1e-6;
-    let mut g = vec![DVec3::ZERO; n];
-    shell.gradient(x, &mut g);
-    let hess = dense_hessian(shell, x, HessianMode::Exact);
-    let (mut ge, mut gr, mut he, mut hr) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    let (mut gp, mut gm) = (vec![DVec3::ZERO; n], vec![DVec3::ZERO; n]);
-    for v in 0..n {
-        for i in 0..3 {
-            let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
-            xp[v][i] += h;
-            xm[v][i] -= h;
-            let fd = (shell.gradient(&xp, &mut gp) - shell.gradient(&xm, &mut gm)) / (2.0 * h);
-            ge = ge.max((fd - g[v][i]).abs());
-            gr = gr.max(g[v][i].abs());
-            for w in 0..n {
-                for j in 0..3 {
-                    let fd = (gp[w][j] - gm[w][j]) / (2.0 * h);
-                    let an = hess[3 * w + j][3 * v + i];
-                    he = he.max((fd - an).abs());
-                    hr = hr.max(an.abs());
-                }
-            }
-        }
-    }
-    (ge / gr, he / hr)
+    let hessian = dense_hessian(shell, x, HessianMode::Exact).concat();
+    let gradient = |y: &[DVec3]| {
+        let mut g = vec![DVec3::ZERO; y.len()];
+        shell.gradient(y, &mut g);
+        g
+    };
+    fd::errors(x, |y| shell.energy(y), gradient, Some(&hessian))
 }
 
 const K: ShellStiffness = ShellStiffness { k_area: 3.0, k_length: 2.0, k_bend: 0.7 };

@@ -10,6 +10,16 @@
 //!
 //! Convention of the summaries: every number printed in **bold** is a value of the experiment's CSV,
 //! as it reads there (rounded for print); everything else is prose, settings or thresholds.
+//!
+//! # Adding an experiment
+//!
+//! `experiments/perf.rs` is the smallest; copy its shape. A file under `experiments/` with its
+//! table's [`Column`]s (the first is `case`; `computed` columns must agree between runs, `timed` ones
+//! are wall-clock figures), an [`About`] naming it, and `impl Experiment`: `cases` lists the case
+//! keys (a smaller list when `quick`), `run` computes one case's rows from nothing but its key, and
+//! `report` writes the summary section and charts from the merged table alone ([`report::Section::new`],
+//! charts through `experiments::add_chart`). Then one line in `experiments::ALL`; `eval --plan`,
+//! `--case`, the merge and the tests of every experiment's plan pick it up from there.
 
 pub mod case;
 pub mod chart;

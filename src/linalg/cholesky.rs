@@ -5,8 +5,9 @@
 //! (e.g. [`super::ordering::nested_dissection`] expanded to DOFs). The factorisation runs on the
 //! calling thread; a solve with several right sides splits its columns over the threads of
 //! [`crate::threads`] (faer's blocked kernels then group the columns differently, so a column may
-//! differ in its last bits from a solve on one thread). faer's own parallel factorisation was
-//! measured hardly faster on two cores (a 100,002-vertex shell: 5.9 s on one thread, 5.3 s on two).
+//! differ in its last bits from a solve on one thread). faer's own parallel factorisation measured
+//! hardly faster than one thread on a large shell (`BENCHMARKS.md`, *Design measurements quoted from
+//! module docs*).
 
 use dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;

@@ -3,9 +3,10 @@
 //! Recursively split the vertices at the median along one of a few directions (the three axes and
 //! the principal axis of the part's points), keeping the split with the smallest separator. The
 //! separator is a minimum vertex cover of the edges that cross the split (König's theorem on the
-//! bipartite graph of the two boundary layers), ordered after both halves. On the 13k-vertex creature
-//! this gives 35% fewer Cholesky flops than splitting the longest axis with one boundary layer as
-//! separator (7.4e9 against 1.1e10; approximate minimum degree: 1.4e10).
+//! bipartite graph of the two boundary layers), ordered after both halves. On the creature this
+//! measured fewer Cholesky flops than splitting the longest axis with one boundary layer as
+//! separator, and than approximate minimum degree (`BENCHMARKS.md`, *Design measurements quoted from
+//! module docs*).
 
 use glam::DVec3;
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};

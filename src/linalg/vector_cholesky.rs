@@ -11,13 +11,13 @@
 //! forwards through memory (the columns are stored last to first). Up to 65,536 unknowns the indices
 //! are 16-bit and the solution a fixed-size array, so the gathers need no bounds checks; larger
 //! systems take 32-bit indices and checked gathers. The loops are compiled for AVX2 + FMA where the
-//! CPU has them ([`super::isa`]). A solve reads the factor twice and allocates nothing. Measured on
-//! the creature's 13k-vertex Laplacian (one core, AVX-512 Xeon): 0.52 ms for the three coordinates
-//! and copying them out (0.71 ms before the backward pass streamed forwards and the gathers lost
-//! their bounds checks and separate multiplies), where faer's own solve with three columns takes 1.1 ms (simplicial) or
-//! 1.5 ms (supernodal); geometric nested dissection gives 5% more fill here, and a 16% slower solve;
-//! eight sums, two sums and a backward pass scattering from the rows (one copy of the factor instead
-//! of two) were each no faster or slower.
+//! CPU has them ([`super::isa`]). A solve reads the factor twice and allocates nothing. On the
+//! creature's Laplacian, streaming the backward pass forwards and gathering without bounds checks or
+//! separate multiplies measured faster than before, and the whole solve faster than faer's own with
+//! three columns, simplicial or supernodal; geometric nested dissection gives more fill there, and a
+//! slower solve; more or fewer sums, and a backward pass scattering from the rows (one copy of the
+//! factor instead of two), were each no faster or slower (`BENCHMARKS.md`, *Design measurements
+//! quoted from module docs*).
 
 use std::ops::IndexMut;
 

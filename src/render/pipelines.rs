@@ -79,7 +79,12 @@ impl Pipelines {
             bind_group_layouts: &[Some(&bind_group_layout)],
             immediate_size: 0,
         });
-        let make = |label: &str, source: &str, vertex: wgpu::VertexBufferLayout<'_>, lines: bool| {
+        let make = |label: &str, source: &str, stride: usize, attributes: &[wgpu::VertexAttribute], lines: bool| {
+            let vertex = wgpu::VertexBufferLayout {
+                array_stride: stride as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes,
+            };
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
                 source: wgpu::ShaderSource::Wgsl(Cow::Owned(format!("{GLOBALS_WGSL}\n{source}"))),
@@ -128,27 +133,9 @@ impl Pipelines {
             })
         };
         let lit_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32x4];
-        let lit = make(
-            "shellwarp lit",
-            LIT_WGSL,
-            wgpu::VertexBufferLayout {
-                array_stride: size_of::<LitVertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &lit_attrs,
-            },
-            false,
-        );
+        let lit = make("shellwarp lit", LIT_WGSL, size_of::<LitVertex>(), &lit_attrs, false);
         let line_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32, 2 => Float32x4];
-        let line = make(
-            "shellwarp lines",
-            LINE_WGSL,
-            wgpu::VertexBufferLayout {
-                array_stride: size_of::<LineVertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &line_attrs,
-            },
-            true,
-        );
+        let line = make("shellwarp lines", LINE_WGSL, size_of::<LineVertex>(), &line_attrs, true);
         Self { bind_group_layout, lit, line }
     }
 }

@@ -1,9 +1,27 @@
 //! The one seam every simulation method plugs into: the [`Solver`] trait, its parameters, drag
-//! constraints, statistics, and the [`registry`] that builds a solver from a scene by method name.
-//!
-//! The viewer, the headless renderer, `sim` and `eval` drive solvers only through this trait, so a
-//! new method is one new file plus one line in [`registry::METHODS`]; [`build`] makes the solver a
+//! constraints, statistics, and the [`registry`] of methods by name; [`build`] makes the solver a
 //! scene asks for.
+//!
+//! The viewer, the headless renderer, `sim` and `eval` drive solvers only through this trait.
+//!
+//! # Adding a method
+//!
+//! `rigid.rs` is the smallest complete method; copy its shape.
+//!
+//! 1. A file (or folder) under `solver/` with the solver's state and `impl Solver`: `step` advances one
+//!    fixed step and returns [`StepStats`] (call [`check_finite`] on the new state, so divergence is
+//!    reported, never propagated); `reset` returns to rest keeping parameters and drags; `params` and
+//!    `set_param` publish its [`ParamSpec`]s (checked with [`ParamSpec::check`]); `drags_mut` gives
+//!    the [`DragSet`] it honours (position drags at least; orientation drags where it has rotations).
+//! 2. A `pub const METHOD: Method` in that file: its name (for scene files, `--method` and the panel),
+//!    a one-line summary, the constructor from a realised [`Setup`](crate::scene::Setup) (read the
+//!    scene's material and `[solver]` table; refuse what it cannot simulate with
+//!    [`SolverError::Unsuitable`]), and its memory [`Footprint`].
+//! 3. One line in [`registry::METHODS`]. The panel's method list, `sim`, `render`, the evaluation's
+//!    method sweeps and the fuzzer pick it up from there.
+//! 4. Tests beside it that would fail if it were wrong (a known equilibrium, a conserved quantity, or
+//!    agreement with another method), and the method added to the evaluation's families where it
+//!    competes (`eval/experiments`).
 
 pub mod auto;
 pub mod cloth;

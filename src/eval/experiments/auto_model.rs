@@ -20,7 +20,7 @@ use super::super::measure;
 use super::super::report::{Section, bold};
 use super::super::table::{Column, Table, Value, computed, timed};
 use super::super::{About, EvalError, Experiment};
-use super::{chart_ref, flag};
+use super::{add_chart, flag};
 use crate::scene::Setup;
 use crate::solver::auto::{self, Candidate, Family};
 use crate::solver::{DragSet, parts};
@@ -330,14 +330,18 @@ impl Experiment for AutoModel {
             });
         }
         let file = format!("{}-estimates.png", self.name());
-        Plot {
-            title: "Error estimates of the chooser against the true errors".into(),
-            x: Axis::log("true relative error (against the reference)"),
-            y: Axis::log("estimated relative error"),
-            series,
-        }
-        .save(&out.join(&file))?;
-        section.charts.push(chart_ref(file, "the chooser's error estimates against the true errors".into()));
+        add_chart(
+            &mut section,
+            out,
+            file,
+            Plot {
+                title: "Error estimates of the chooser against the true errors".into(),
+                x: Axis::log("true relative error (against the reference)"),
+                y: Axis::log("estimated relative error"),
+                series,
+            },
+            "the chooser's error estimates against the true errors".into(),
+        )?;
         Ok(section)
     }
 }

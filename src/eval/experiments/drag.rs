@@ -19,7 +19,7 @@ use super::super::measure::{self, Stop};
 use super::super::report::{Section, bold, bold_percent, number};
 use super::super::table::{Column, Table, Value, computed, timed};
 use super::super::{About, EvalError, Experiment};
-use super::{chart_ref, flag, num, pareto};
+use super::{add_chart, flag, num, pareto};
 use crate::scene::{Key, Setup};
 use crate::solver::quality;
 
@@ -233,17 +233,18 @@ impl Experiment for Drags {
                 })
                 .collect();
             let file = format!("{}-{scene}-error.png", self.name());
-            Plot {
-                title: format!("{scene}: error against the walked discrete shell"),
-                x: Axis::log(unit),
-                y: Axis::log("relative displacement error |u − u_ref| / |u_ref|"),
-                series,
-            }
-            .save(&out.join(&file))?;
-            section.charts.push(chart_ref(
+            add_chart(
+                &mut section,
+                out,
                 file,
+                Plot {
+                    title: format!("{scene}: error against the walked discrete shell"),
+                    x: Axis::log(unit),
+                    y: Axis::log("relative displacement error |u − u_ref| / |u_ref|"),
+                    series,
+                },
                 format!("{scene}: error against the size of the {kind}, 8 modes (errors below {FLOOR:e} drawn at it)"),
-            ));
+            )?;
             for size in rows.iter().map(|r| r[zi].num()).fold(Vec::<f64>::new(), |mut v, z| {
                 if !v.contains(&z) {
                     v.push(z);

@@ -21,7 +21,7 @@ use super::super::measure::{self, Stop};
 use super::super::report::{Section, bold, number};
 use super::super::table::{Column, Table, Value, computed, timed};
 use super::super::{About, EvalError, Experiment};
-use super::{chart_ref, flag, key_value, tip_deflection};
+use super::{add_chart, chart_ref, flag, key_value, tip_deflection};
 use crate::app::scene_view::{SceneView, ViewOptions};
 use crate::render::{Camera, Headless, load_png, save_png};
 
@@ -144,7 +144,7 @@ impl Experiment for PaperFig4 {
         let mut headless = Headless::new(w, h)?;
         let view = SceneView::new(&base);
         let camera = panel_camera(&[&rest, &mwts, &reference.positions], w as f32 / h as f32)?;
-        let mut frame = view.frame(camera, &mwts, 0.0, &[], ViewOptions { wireframe: false });
+        let mut frame = view.frame(camera, &mwts, 0.0, &[], ViewOptions { wireframe: false }, &[]);
         let topology = base.mesh.topology();
         let p = |x: &[DVec3], v: usize| x[v].as_vec3().to_array();
         for e in &topology.edges {
@@ -196,14 +196,18 @@ impl Experiment for PaperFig4 {
             }
         }
         let file = format!("{}-tip.png", self.name());
-        Plot {
-            title: "Tip deflection under gravity against bending stiffness".into(),
-            x: Axis::log("bending stiffness k_B / k_B(×1)"),
-            y: Axis::log("tip deflection (m)"),
-            series,
-        }
-        .save(&out.join(&file))?;
-        section.charts.push(chart_ref(file, "tip deflection of the flat beam (solid) and the V-beam (dashed)".into()));
+        add_chart(
+            &mut section,
+            out,
+            file,
+            Plot {
+                title: "Tip deflection under gravity against bending stiffness".into(),
+                x: Axis::log("bending stiffness k_B / k_B(×1)"),
+                y: Axis::log("tip deflection (m)"),
+                series,
+            },
+            "tip deflection of the flat beam (solid) and the V-beam (dashed)".into(),
+        )?;
         // The tiles: flat beams on the first row, V-beams on the second.
         let mut tiles = Vec::new();
         for row in table.rows.iter().filter(|r| r[mi].text() == "ds-static") {

@@ -12,7 +12,7 @@ use super::super::measure::{self, Stop};
 use super::super::report::{Section, bold, bold_percent};
 use super::super::table::{Column, Table, Value, computed, timed};
 use super::super::{About, EvalError, Experiment};
-use super::{chart_ref, flag, key_value, num, tip_deflection};
+use super::{add_chart, flag, key_value, num, tip_deflection};
 
 /// The experiment.
 pub struct PaperFig6;
@@ -173,23 +173,31 @@ impl Experiment for PaperFig6 {
                     .collect()
             };
             let file = format!("{}-{scene}-error.png", self.name());
-            Plot {
-                title: format!("{scene}: displacement error against the static reference"),
-                x: Axis::log("gravity (m/s²)"),
-                y: Axis::log("relative displacement error |u − u_ref| / |u_ref|"),
-                series: series(ei, &["lma", "mwts", "ds-implicit", "ds"], false),
-            }
-            .save(&out.join(&file))?;
-            section.charts.push(chart_ref(file, format!("{scene}: relative displacement error against gravity")));
+            add_chart(
+                &mut section,
+                out,
+                file,
+                Plot {
+                    title: format!("{scene}: displacement error against the static reference"),
+                    x: Axis::log("gravity (m/s²)"),
+                    y: Axis::log("relative displacement error |u − u_ref| / |u_ref|"),
+                    series: series(ei, &["lma", "mwts", "ds-implicit", "ds"], false),
+                },
+                format!("{scene}: relative displacement error against gravity"),
+            )?;
             let file = format!("{}-{scene}-area.png", self.name());
-            Plot {
-                title: format!("{scene}: relative area change"),
-                x: Axis::log("gravity (m/s²)"),
-                y: Axis::log("relative area change |A − A₀|/A₀"),
-                series: series(ai, &["lma", "mwts", "ds-implicit", "ds", "ds-static"], true),
-            }
-            .save(&out.join(&file))?;
-            section.charts.push(chart_ref(file, format!("{scene}: relative area change against gravity")));
+            add_chart(
+                &mut section,
+                out,
+                file,
+                Plot {
+                    title: format!("{scene}: relative area change"),
+                    x: Axis::log("gravity (m/s²)"),
+                    y: Axis::log("relative area change |A − A₀|/A₀"),
+                    series: series(ai, &["lma", "mwts", "ds-implicit", "ds", "ds-static"], true),
+                },
+                format!("{scene}: relative area change against gravity"),
+            )?;
             // Findings: MWTS against LMA at every plotted level; the area-change fraction.
             let by = |m: &str| -> Vec<&Vec<Value>> {
                 rows.iter().copied().filter(|r| r[mi].text() == m && !refused.contains(&r[gi].num())).collect()

@@ -18,7 +18,10 @@ pub use pareto::Pareto;
 pub use perf::PaperPerf;
 pub use stability::Stability;
 
-use super::report::ChartRef;
+use std::path::Path;
+
+use super::chart::Plot;
+use super::report::{ChartRef, Section};
 use super::table::Value;
 use super::{EvalError, Experiment, chart};
 
@@ -28,6 +31,13 @@ pub const ALL: &[&dyn Experiment] = &[&PaperFig6, &PaperFig4, &PaperPerf, &Paret
 /// A chart of the standard size, for a section.
 fn chart_ref(file: String, caption: String) -> ChartRef {
     ChartRef { file, caption, size: chart::SIZE }
+}
+
+/// Draw `plot` into `out/file` and list it in `section` under `caption`.
+fn add_chart(section: &mut Section, out: &Path, file: String, plot: Plot, caption: String) -> Result<(), EvalError> {
+    plot.save(&out.join(&file))?;
+    section.charts.push(chart_ref(file, caption));
+    Ok(())
 }
 
 /// A flag as a number cell (1 or 0).

@@ -22,7 +22,7 @@ use super::super::measure::{self, Run, Stop};
 use super::super::report::{Section, bold};
 use super::super::table::{Column, Table, computed, timed};
 use super::super::{About, EvalError, Experiment};
-use super::chart_ref;
+use super::add_chart;
 use crate::solver::registry;
 
 /// The experiment.
@@ -241,14 +241,18 @@ impl Experiment for Pareto {
                 points: front.iter().map(|&i| point(i)).collect(),
             });
             let file = format!("{}-{family}.png", self.name());
-            Plot {
-                title: format!("{title}: cost against error"),
-                x: Axis::log("cost (wall-clock s per simulated s)"),
-                y: Axis::log("relative displacement error"),
-                series,
-            }
-            .save(&out.join(&file))?;
-            section.charts.push(chart_ref(file, format!("{family}: cost against error, Pareto front dashed")));
+            add_chart(
+                &mut section,
+                out,
+                file,
+                Plot {
+                    title: format!("{title}: cost against error"),
+                    x: Axis::log("cost (wall-clock s per simulated s)"),
+                    y: Axis::log("relative displacement error"),
+                    series,
+                },
+                format!("{family}: cost against error, Pareto front dashed"),
+            )?;
             let listed: Vec<String> = front
                 .iter()
                 .map(|&i| {

@@ -14,9 +14,10 @@
 //! together, and the products of such ones fall below single precision's normal range, where
 //! arithmetic costs the CPU about a hundred times as much (subnormal numbers: no flush-to-zero mode
 //! here, which would take `unsafe`). A sheet hanging in its plane meets them when it first leaves it:
-//! the disturbance spreads with ever smaller out-of-plane offsets, down to 1e-40 m. On the
-//! 10,000-particle hanging sheet, its frames 159–164 took 20–68 ms instead of 10; with the flush,
-//! 11–13 ms, as products of larger offsets still underflow now and then (`BENCHMARKS.md`). A nanometre
+//! the disturbance spreads with ever smaller out-of-plane offsets, far below a nanometre. On the
+//! hanging sheet, the frames where this happens measured several times slower than the others; with the
+//! flush, only a little slower, as products of larger offsets still underflow now and then
+//! (`BENCHMARKS.md`, *Design measurements quoted from module docs*). A nanometre
 //! is under the rounding of a row a few centimetres from the first particle, and what a flushed row
 //! is moved by comes back whole.
 

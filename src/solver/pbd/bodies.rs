@@ -40,14 +40,9 @@ impl Rigid {
     /// The collider at time 0.
     pub fn new(body: &Body) -> Self {
         let (centre, rotation) = body.pose(0.0);
-        let (inverse_mass, inverse_inertia) = match (body.mass, &body.shape) {
-            (Some(m), Shape::Sphere { radius }) => (1.0 / m, DVec3::splat(1.0 / (0.4 * m * radius * radius))),
-            (Some(m), Shape::Cuboid { half }) => {
-                let s = *half * 2.0;
-                let i = DVec3::new(s.y * s.y + s.z * s.z, s.x * s.x + s.z * s.z, s.x * s.x + s.y * s.y) * (m / 12.0);
-                (1.0 / m, DVec3::ONE / i)
-            }
-            _ => (0.0, DVec3::ZERO),
+        let (inverse_mass, inverse_inertia) = match body.mass.and_then(|m| Some((m, body.shape.inertia(m)?))) {
+            Some((m, inertia)) => (1.0 / m, DVec3::ONE / inertia),
+            None => (0.0, DVec3::ZERO),
         };
         let (velocity, spin) =
             if body.mass.is_some() { (body.motion.velocity, body.motion.spin) } else { (DVec3::ZERO, DVec3::ZERO) };

@@ -418,11 +418,7 @@ impl Pbd {
         // Small bodies against triangles: the triangles near a ball or a box.
         let spacing = 0.5 * self.model.mean_edge;
         for (b, body) in self.bodies.iter().enumerate() {
-            let radius = match body.body.shape {
-                Shape::Sphere { radius } => radius,
-                Shape::Cuboid { half } => half.length(),
-                _ => continue,
-            };
+            let Some(radius) = body.body.shape.bounding_radius() else { continue };
             let margin = radius + self.thickness + body.velocity.length() * h + self.model.mean_edge;
             let samples = body.samples(spacing);
             for (t, tri) in self.model.triangles.iter().enumerate() {

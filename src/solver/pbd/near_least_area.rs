@@ -1,10 +1,11 @@
 //! Which triangles start a substep near their least area ([`super::project::least_area`]): those
 //! whose area, at the substep's start, is under twice the least. The test runs every substep over
 //! every triangle, eight at a time in single precision from the rows of the substep's start
-//! ([`super::triangle_scan`]), and the bound on the rounding of a normal ([`triangle_scan::rounded_normal`]) keeps every
-//! triangle the exact test would keep: it lists a triangle when its area might be under twice the
-//! least, and the projection tests the listed ones again in double precision. (Tested one at a time
-//! in double precision, it took 7% of the 10,000-particle hanging sheet's frame.)
+//! ([`super::triangle_scan`]), and the bound on the rounding of a normal
+//! ([`triangle_scan::rounded_normal`]) keeps every triangle the exact test would keep: it lists a
+//! triangle when its area might be under twice the least, and the projection tests the listed ones
+//! again in double precision. (Tested one at a time in double precision, it took a noticeable share
+//! of the hanging sheet's frame: `BENCHMARKS.md`, *Design measurements quoted from module docs*.)
 
 use super::batch::{Batch, CONSTANTS, Indexed, Row};
 use super::triangle_scan;

@@ -6,8 +6,9 @@
 //! With bending, the boundary edges go first, then each interior edge together with its hinge, in one
 //! lane: the stretch is projected, then the bending at the stretched positions (Gauss–Seidel within
 //! the lane), and the particles are read and written once for both (taking the edges on their own
-//! read and wrote every particle of a hinge's edge a second time: the sweeps measured 13% faster
-//! together, `BENCHMARKS.md`). Without bending every edge goes on its own. Lanes come in colours (no
+//! read and wrote every particle of a hinge's edge a second time: the sweeps measured faster
+//! together, `BENCHMARKS.md`, *Design measurements quoted from module docs*). Without bending every
+//! edge goes on its own. Lanes come in colours (no
 //! two of a colour share a particle, [`super::model`]), so the lanes of a colour are independent:
 //! projecting them one after another or all at once gives the same positions.
 //!
@@ -17,13 +18,13 @@
 //! functions — the same source the scalar ones are ([`Real`]) — run on all lanes at once. The
 //! kernel is compiled with AVX-512's 32 registers where the CPU has them ([`crate::linalg::isa::eight`]),
 //! indexes the rows by masked indices (no bounds checks) and writes every lane of a batch, the ones
-//! past its count repeating its last. Measured on the 10,000-particle sheet (`BENCHMARKS.md`): rows
-//! in single precision 4% faster than double-precision rows narrowed lane by lane, the registers
-//! 2–5%, the masked indices 7%, and writing every lane instead of testing each against the count 11%.
-//! Earlier, with double-precision rows: sixteen lanes (two batches joined for the arithmetic) gained
-//! 2–4% on the sheet and lost 3–6% on the 961-particle drape; eight lanes of double precision on
-//! AVX-512 lost 20% (its divisions and roots). A CPU without AVX2 runs the same arithmetic one lane
-//! at a time.
+//! past its count repeating its last. Each measured faster on the hanging sheet: rows in single
+//! precision than double-precision rows narrowed lane by lane, the extra registers, the masked
+//! indices, and writing every lane instead of testing each against the count. Earlier, with
+//! double-precision rows: sixteen lanes (two batches joined for the arithmetic) gained a little on
+//! the sheet and lost on the drape; eight lanes of double precision on AVX-512 lost (its divisions
+//! and roots) (`BENCHMARKS.md`, *Design measurements quoted from module docs*). A CPU without AVX2
+//! runs the same arithmetic one lane at a time.
 
 use std::marker::PhantomData;
 

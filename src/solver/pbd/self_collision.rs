@@ -14,8 +14,9 @@
 //! its own relative travel in that substep, so a fast vertex gets room and a still one costs little.
 //! Where searches come within four substeps of each other and list few pairs (under 2% of the
 //! vertices), the travel is counted for two, then four substeps (twice each): room for a cloth that
-//! flaps as a whole, paid for in pairs, and taken back by a search that lists many (the wrinkled
-//! hanging sheet: 965 searches in 300 frames instead of 1,647; with the fans below, 0.73 of the time).
+//! flaps as a whole, paid for in pairs, and taken back by a search that lists many (on the wrinkled
+//! hanging sheet this measured far fewer searches, and with the fans below less time: `BENCHMARKS.md`,
+//! *Design measurements quoted from module docs*).
 //!
 //! Patches that are flat are not searched within, whatever the margins: the hierarchy skips a patch
 //! whose normals lie within 40° of one axis and whose smallest altitude keeps its vertices and edges
@@ -29,26 +30,27 @@
 //! at the search's anchors and margins, which still hold ([`TriangleTree::renewed_pairs`]): what a
 //! search would list now. So the margins, which only widen the boxes, do not list every near neighbour
 //! of a moving sheet, and a wrinkle that forms is not a search. (A tilt of 5° rather than 10°: flat
-//! patches up to 40° wide instead of 35°, more renewals but cheaper searches; the wrinkled hanging
-//! sheet 0.96 of the time.)
+//! patches up to 40° wide instead of 35°, more renewals but cheaper searches, which measured slightly
+//! faster on the wrinkled hanging sheet.)
 //!
 //! When the search found the whole cloth one flat patch (the hierarchy's root skipped), there is no
 //! pair, and none can come while it stays flat, so the drift is not checked until a triangle turns
-//! (the 10,000-particle hanging sheet, swinging in its plane, is searched once in its first 157 frames
-//! instead of five to eight times a frame; once it wrinkles out of its plane, the drift of its swing
-//! makes the search again every two to four substeps). Several flat patches covering the cloth are
-//! not enough: pairs between them can come.
+//! (the hanging sheet, swinging in its plane, is searched once while it stays in its plane instead of
+//! several times a frame; once it wrinkles out of its plane, the drift of its swing makes the search
+//! again every few substeps). Several flat patches covering the cloth are not enough: pairs between
+//! them can come.
 //!
 //! Along the borders between flat patches, the hierarchy hands over every pair of neighbouring
 //! triangles (their boxes overlap), unless the two patches share an edge and are flat together (then
-//! they are one flat patch, skipped alike: the wrinkled hanging sheet's 300 frames take 0.73 of the
-//! time). A pair of triangles round a vertex whose fan is flat by the same criterion ([`Fans`]) is
-//! skipped too. Before patches were joined, three quarters of the pairs handed over on the wrinkled
-//! hanging sheet shared a vertex, and skipping flat fans took a tenth off its 300 frames.
+//! they are one flat patch, skipped alike, which measured clearly faster on the wrinkled hanging
+//! sheet). A pair of triangles round a vertex whose fan is flat by the same criterion ([`Fans`]) is
+//! skipped too. Before patches were joined, most of the pairs handed over on the wrinkled hanging
+//! sheet shared a vertex, and skipping flat fans measured faster (`BENCHMARKS.md`, *Design
+//! measurements quoted from module docs*).
 //!
 //! The hierarchy's and the fans' bound on distances assumes triangles keep their rest altitudes within
 //! 10%. A cloth stretched and sheared further (the hanging sheet at 16 substeps of one sweep, by its
-//! clips, where some triangles lose half their altitude) brings vertices of a flat patch within the
+//! clips, where some triangles lose much of their altitude) brings vertices of a flat patch within the
 //! reach of each other's triangles in the patch's plane. That is no crossing: a patch within 45° of one
 //! axis, compact and not wrapped round a point, is a graph over the plane across it and cannot go
 //! through itself, and the search made when it stops being flat lists such pairs as they are — as long
@@ -63,7 +65,8 @@
 //! No pair that a search in every substep would find is missed, and searches are made only as often
 //! as the cloth's motion needs them. (The issue asked for a spatial hash; measured on the `pile`,
 //! hashing vertices and edge midpoints needed queries as large as an edge around every edge and cost
-//! 4–7 ms a search for 715 vertices, the hierarchy a small fraction of that.)
+//! many times what the hierarchy costs a search: `BENCHMARKS.md`, *Design measurements quoted from
+//! module docs*.)
 //!
 //! Sides: a vertex over its triangle and closer than the thickness keeps the side it had (so one pushed
 //! through in a substep is brought back); otherwise its side is where it is. Edge pairs likewise.
