@@ -29,7 +29,7 @@ fn settle(setup: &Setup, method: &str, g: f64) -> Vec<DVec3> {
     let mut setup = setup.clone();
     setup.scene.solver.method = method.into();
     let mut s: Box<dyn Solver> = solver::build(&setup).unwrap();
-    s.set_param(if method == "ds-static" { "gravity_y" } else { "gravity" }, -g).unwrap();
+    s.set_param("gravity_y", -g).unwrap();
     let steps = if method == "ds-static" { 4 } else { 400 };
     for _ in 0..steps {
         s.step().unwrap_or_else(|e| panic!("{method} at g = {g}: {e}"));

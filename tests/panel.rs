@@ -85,7 +85,7 @@ fn bending_stiffness_and_mode_count_typed_in_the_panel_reach_the_solver() {
     h.run();
     assert_eq!(h.state().snapshot.method, "mwts");
     assert_eq!(active_modes(&h.state().snapshot), Some(8.0));
-    type_into(&mut h, "k_B (bending)", "0.25");
+    type_into(&mut h, "bending stiffness k_B", "0.25");
     assert!(h.state().actions.contains(&UiAction::SetParam("k_bend".into(), 0.25)), "{:?}", h.state().actions);
     assert!(deliver(&mut h, &mut sim, |s| value(s, "k_bend") == Some(0.25)), "k_B never reached the solver");
     type_into(&mut h, "modes", "12");
@@ -138,14 +138,14 @@ fn every_control_has_hover_text() {
 fn invalid_value_is_refused_with_a_message() {
     let (mut h, _sim) = harness("cantilever");
     h.run();
-    type_into(&mut h, "k_B (bending)", "-3");
+    type_into(&mut h, "bending stiffness k_B", "-3");
     assert!(h.state().actions.iter().all(|a| !matches!(a, UiAction::SetParam(..))), "nothing sent");
     let err = h.state().panel.error("k_bend").expect("an error is recorded").to_string();
     assert!(err.contains("outside the allowed range"), "{err}");
     h.get_by_label_contains("outside the allowed range");
     type_into(&mut h, "modes", "2.5");
     assert!(h.state().panel.error("modes").is_some_and(|e| e.contains("whole number")));
-    type_into(&mut h, "k_B (bending)", "abc");
+    type_into(&mut h, "bending stiffness k_B", "abc");
     assert!(h.state().panel.error("k_bend").is_some_and(|e| e.contains("not a number")));
 }
 

@@ -15,7 +15,8 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::shell_model::SHELL_PARAMS;
+use super::params::shared::GRAVITY_Y;
+use super::params::{self, Param, Redo};
 use super::stability::{StabilityLimit, stability_limit};
 use super::{DragSet, ParamSpec, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
 use super::{Footprint, Method};
@@ -55,6 +56,12 @@ const SUBSTEP: ParamSpec = ParamSpec {
     max: 1.0,
     integer: false,
 };
+
+/// Its own parameters, after the shell's and the wind's.
+const PARAMS: &[Param<DsExplicit>] = &[
+    Param::new(FRAME, |s| s.frame, |s, v| s.frame = v, Redo::Nothing),
+    Param::new(SUBSTEP, DsExplicit::substep, |s, v| s.requested = Some(v).filter(|&h| h > 0.0), Redo::Nothing),
+];
 
 /// The [`Solver::info`] label of the estimated stable limit of the substep, `2/ω_max` at rest (s).
 pub const STABLE_LIMIT_INFO: &str = "stable limit 2/ω_max (s)";
@@ -191,30 +198,18 @@ impl Solver for DsExplicit {
     }
 
     fn params(&self) -> Vec<ParamValue> {
-        let mut p = self.model.params();
-        p.push(ParamValue { spec: FRAME, value: self.frame });
-        p.push(ParamValue { spec: SUBSTEP, value: self.substep() });
-        p
+        [self.model.params(), params::values(PARAMS, self)].concat()
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
-        if name == SUBSTEP.name {
-            self.requested = Some(SUBSTEP.check(value)?).filter(|&h| h > 0.0);
-            return Ok(());
-        }
-        if name == FRAME.name {
-            self.frame = FRAME.check(value)?;
-            return Ok(());
-        }
-        if self.model.set_param(METHOD.name, name, value)? {
+        if self.model.set_param(name, value)? {
             // The limit depends on stiffness, masses and damping, not on the load.
-            if name != "gravity_y" {
+            if name != GRAVITY_Y.name {
                 self.limit = stability_limit(&mut self.model);
             }
             return Ok(());
         }
-        let all: Vec<ParamSpec> = SHELL_PARAMS.iter().copied().chain([FRAME, SUBSTEP]).collect();
-        ParamSpec::find(METHOD.name, &all, name).map(|_| ())
+        params::set(PARAMS, self, name, value).map(drop)
     }
 
     fn info(&self) -> Vec<(&'static str, f64)> {

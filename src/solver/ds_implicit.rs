@@ -6,9 +6,9 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::newton::{Inertia, NEWTON_PARAMS, NewtonSettings};
-use super::shell_model::SHELL_PARAMS;
-use super::{DragSet, ParamSpec, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
+use super::newton::{Inertia, NEWTON_PARAMS, NewtonSettings, STEP};
+use super::params::{self, Param, Redo};
+use super::{DragSet, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
 use super::{Footprint, Method};
 use crate::scene::Setup;
 
@@ -19,6 +19,9 @@ pub const METHOD: Method = Method {
     build: |setup| Ok(Box::new(DsImplicit::new(setup)?)),
     footprint: Footprint::FACTORED,
 };
+
+/// Its own parameters (after the shell's and the wind's, before the Newton settings).
+const PARAMS: &[Param<DsImplicit>] = &[Param::new(STEP, |s| s.h, |s, v| s.h = v, Redo::Nothing)];
 
 /// The implicit discrete-shell integrator.
 pub struct DsImplicit {
@@ -37,21 +40,11 @@ impl DsImplicit {
     pub fn new(setup: &Setup) -> Result<Self, SolverError> {
         let model = ShellModel::new(setup)?;
         let s = &setup.scene.solver;
-        let h = NEWTON_PARAMS[0].check(s.step.unwrap_or(1.0 / 30.0))?;
-        let max_iterations = NEWTON_PARAMS[1].check(s.iterations as f64)? as usize;
-        let tolerance = NEWTON_PARAMS[2].check(s.tolerance)?;
+        let h = STEP.check(s.step.unwrap_or(1.0 / 30.0))?;
+        let newton = NewtonSettings::of(s)?;
         let x = model.rest().to_vec();
         let n = x.len();
-        Ok(Self {
-            model,
-            v: vec![DVec3::ZERO; n],
-            x,
-            h,
-            newton: NewtonSettings { max_iterations, tolerance },
-            drags: DragSet::new(n, false),
-            steps: 0,
-            time: 0.0,
-        })
+        Ok(Self { model, v: vec![DVec3::ZERO; n], x, h, newton, drags: DragSet::new(n, false), steps: 0, time: 0.0 })
     }
 }
 
@@ -100,24 +93,15 @@ impl Solver for DsImplicit {
     }
 
     fn params(&self) -> Vec<ParamValue> {
-        let mut p = self.model.params();
-        let values = [self.h, self.newton.max_iterations as f64, self.newton.tolerance];
-        p.extend(NEWTON_PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }));
-        p
+        [self.model.params(), params::values(PARAMS, self), params::values(NEWTON_PARAMS, &self.newton)].concat()
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
-        if self.model.set_param(METHOD.name, name, value)? {
+        if self.model.set_param(name, value)? || params::assign(NEWTON_PARAMS, &mut self.newton, name, value)?.is_some()
+        {
             return Ok(());
         }
-        let all: Vec<ParamSpec> = SHELL_PARAMS.iter().chain(&NEWTON_PARAMS).copied().collect();
-        let value = ParamSpec::find(METHOD.name, &all, name)?.check(value)?;
-        match name {
-            "step" => self.h = value,
-            "iterations" => self.newton.max_iterations = value as usize,
-            _ => self.newton.tolerance = value,
-        }
-        Ok(())
+        params::set(PARAMS, self, name, value).map(drop)
     }
 
     fn drags(&self) -> &DragSet {

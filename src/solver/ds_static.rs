@@ -25,8 +25,8 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::newton::{NEWTON_PARAMS, NewtonReport, NewtonSettings};
-use super::shell_model::SHELL_PARAMS;
-use super::{DragSet, ParamSpec, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
+use super::params;
+use super::{DragSet, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
 use super::{Footprint, Method};
 use crate::scene::Setup;
 
@@ -75,8 +75,7 @@ impl DsStatic {
             });
         }
         let s = &setup.scene.solver;
-        let max_iterations = NEWTON_PARAMS[1].check(s.iterations as f64)? as usize;
-        let tolerance = NEWTON_PARAMS[2].check(s.tolerance)?;
+        let newton = NewtonSettings::of(s)?;
         let x = model.rest().to_vec();
         let n = x.len();
         Ok(Self {
@@ -84,7 +83,7 @@ impl DsStatic {
             x,
             settled: vec![DVec3::ZERO; n],
             increment: 1.0,
-            newton: NewtonSettings { max_iterations, tolerance },
+            newton,
             drags: DragSet::new(n, false),
             steps: 0,
         })
@@ -204,23 +203,15 @@ impl Solver for DsStatic {
     }
 
     fn params(&self) -> Vec<ParamValue> {
-        let mut p = self.model.params();
-        let values = [self.newton.max_iterations as f64, self.newton.tolerance];
-        p.extend(NEWTON_PARAMS[1..].iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }));
-        p
+        [self.model.params(), params::values(NEWTON_PARAMS, &self.newton)].concat()
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
-        if self.model.set_param(METHOD.name, name, value)? {
+        if self.model.set_param(name, value)? || params::assign(NEWTON_PARAMS, &mut self.newton, name, value)?.is_some()
+        {
             return Ok(());
         }
-        let all: Vec<ParamSpec> = SHELL_PARAMS.iter().chain(&NEWTON_PARAMS[1..]).copied().collect();
-        let value = ParamSpec::find(METHOD.name, &all, name)?.check(value)?;
-        match name {
-            "iterations" => self.newton.max_iterations = value as usize,
-            _ => self.newton.tolerance = value,
-        }
-        Ok(())
+        Err(params::unknown(METHOD.name, name, self.params().iter().map(|p| p.spec.name)))
     }
 
     fn drags(&self) -> &DragSet {

@@ -32,7 +32,7 @@ pub mod ds_static;
 mod error;
 pub mod modal;
 mod newton;
-mod params;
+pub mod params;
 pub mod parts;
 pub mod pbd;
 pub mod quality;

@@ -15,39 +15,39 @@
 use glam::DVec3;
 
 use super::ShellModel;
+use super::params::{self, Param, Redo};
 use super::{ParamSpec, SolverError};
 use crate::energy::HessianMode;
 use crate::linalg::SparseCholesky;
+use crate::scene::SolverSettings;
 
-/// The Newton methods' settings: `step`, `iterations`, `tolerance`.
-pub(crate) const NEWTON_PARAMS: [ParamSpec; 3] = [
-    ParamSpec {
-        name: "step",
-        label: "time step",
-        unit: "s",
-        help: "Backward Euler step.",
-        min: 1e-6,
-        max: 1.0,
-        integer: false,
-    },
-    ParamSpec {
-        name: "iterations",
-        label: "Newton iterations",
-        unit: "",
-        help: "Cap on Newton iterations per step.",
-        min: 1.0,
-        max: 1000.0,
-        integer: true,
-    },
-    ParamSpec {
-        name: "tolerance",
-        label: "Newton tolerance",
-        unit: "",
-        help: "Relative residual at which Newton stops.",
-        min: 1e-14,
-        max: 1.0,
-        integer: false,
-    },
+/// Backward Euler's step, a parameter of the dynamic Newton method.
+pub(crate) const STEP: ParamSpec = ParamSpec::linear("step", "time step", "s", "Backward Euler step.", 1e-6, 1.0);
+
+/// The Newton settings' parameters, the same in every Newton method.
+pub(crate) const NEWTON_PARAMS: &[Param<NewtonSettings>] = &[
+    Param::new(
+        ParamSpec {
+            integer: true,
+            ..ParamSpec::linear(
+                "iterations",
+                "Newton iterations",
+                "",
+                "Cap on Newton iterations per step.",
+                1.0,
+                1000.0,
+            )
+        },
+        |n| n.max_iterations as f64,
+        |n, v| n.max_iterations = v as usize,
+        Redo::Nothing,
+    ),
+    Param::new(
+        ParamSpec::linear("tolerance", "Newton tolerance", "", "Relative residual at which Newton stops.", 1e-14, 1.0),
+        |n| n.tolerance,
+        |n, v| n.tolerance = v,
+        Redo::Nothing,
+    ),
 ];
 
 /// Iteration cap and relative tolerance.
@@ -57,6 +57,16 @@ pub struct NewtonSettings {
     pub max_iterations: usize,
     /// Converged when `|∇Φ| ≤ tolerance × max(|f_ext|, |∇Φ(y₀)|)` (2-norms over free DOFs).
     pub tolerance: f64,
+}
+
+impl NewtonSettings {
+    /// The scene's `solver.iterations` and `solver.tolerance`, checked against [`NEWTON_PARAMS`].
+    pub(crate) fn of(scene: &SolverSettings) -> Result<Self, SolverError> {
+        let mut n = Self { max_iterations: 1, tolerance: 1.0 };
+        params::assign(NEWTON_PARAMS, &mut n, "iterations", scene.iterations as f64)?;
+        params::assign(NEWTON_PARAMS, &mut n, "tolerance", scene.tolerance)?;
+        Ok(n)
+    }
 }
 
 /// The inertia and damping terms of one backward-Euler step.

@@ -1,6 +1,6 @@
 //! Self-describing solver parameters: each solver publishes these and the UI/CLI are generated from them.
 
-use super::SolverError;
+use super::{Solver, SolverError};
 
 /// Description of one tunable parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -48,15 +48,6 @@ impl ParamSpec {
         }
         Ok(value)
     }
-
-    /// Find `name` among `specs`, or the error listing what exists.
-    pub fn find<'a>(method: &'static str, specs: &'a [ParamSpec], name: &str) -> Result<&'a ParamSpec, SolverError> {
-        specs.iter().find(|s| s.name == name).ok_or_else(|| SolverError::UnknownParam {
-            method,
-            name: name.to_string(),
-            available: specs.iter().map(|s| s.name).collect::<Vec<_>>().join(", "),
-        })
-    }
 }
 
 /// A parameter with its current value.
@@ -66,6 +57,128 @@ pub struct ParamValue {
     pub spec: ParamSpec,
     /// Its current value.
     pub value: f64,
+}
+
+/// What a change of a parameter makes its method redo, besides storing the value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Redo {
+    /// Nothing: the next step reads the value.
+    Nothing,
+    /// The forces and caches that depend on it (masses, gravity, the rest stiffness).
+    Forces,
+    /// The modal basis, recomputed in the background.
+    Modes,
+}
+
+/// One parameter of a method whose state is `T`, declared once: what it is, how to read and write it,
+/// and what a change costs. A method's table is a `&[Param<T>]`; its `params`, `set_param`, the
+/// panel, `--set` and the evaluation's sweeps all read that table.
+pub struct Param<T> {
+    /// Name, label, unit, help and range.
+    pub spec: ParamSpec,
+    /// Its current value.
+    pub get: fn(&T) -> f64,
+    /// Store a value already checked against [`Param::spec`].
+    pub set: fn(&mut T, f64),
+    /// What a change makes the method redo.
+    pub redo: Redo,
+}
+
+impl<T> Clone for Param<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<T> Copy for Param<T> {}
+
+impl<T> Param<T> {
+    /// A table entry.
+    pub const fn new(spec: ParamSpec, get: fn(&T) -> f64, set: fn(&mut T, f64), redo: Redo) -> Self {
+        Self { spec, get, set, redo }
+    }
+}
+
+/// The current values of `table` on `state`.
+pub fn values<T>(table: &[Param<T>], state: &T) -> Vec<ParamValue> {
+    table.iter().map(|p| ParamValue { spec: p.spec, value: (p.get)(state) }).collect()
+}
+
+/// Set the parameter `name` of `table` on `state`, checked against its range: what the method must
+/// redo, or `None` when `table` has no such parameter.
+pub fn assign<T>(table: &[Param<T>], state: &mut T, name: &str, value: f64) -> Result<Option<Redo>, SolverError> {
+    let Some(p) = table.iter().find(|p| p.spec.name == name) else { return Ok(None) };
+    (p.set)(state, p.spec.check(value)?);
+    Ok(Some(p.redo))
+}
+
+/// Set `name` from a method's own `table`: what it must redo, or the error listing every parameter
+/// the method has.
+pub fn set<T: Solver>(table: &[Param<T>], state: &mut T, name: &str, value: f64) -> Result<Redo, SolverError> {
+    match assign(table, state, name, value)? {
+        Some(redo) => Ok(redo),
+        None => Err(unknown(state.method(), name, state.params().iter().map(|p| p.spec.name))),
+    }
+}
+
+/// The error for a parameter `name` that a method whose parameters are `names` does not have.
+pub fn unknown<'a>(method: &'static str, name: &str, names: impl IntoIterator<Item = &'a str>) -> SolverError {
+    SolverError::UnknownParam {
+        method,
+        name: name.to_string(),
+        available: names.into_iter().collect::<Vec<_>>().join(", "),
+    }
+}
+
+/// The quantities several methods share, each with one name, label and range.
+pub mod shared {
+    use super::ParamSpec;
+
+    /// Stiffness of the shell's triangle-area (stretch) term.
+    pub const K_AREA: ParamSpec = ParamSpec::linear(
+        "k_area",
+        "area stiffness k_A",
+        "N/m",
+        "Stiffness of the triangle-area (stretch) term.",
+        0.0,
+        1e12,
+    );
+    /// Stiffness of the shell's edge-length (shear) term.
+    pub const K_LENGTH: ParamSpec = ParamSpec::linear(
+        "k_length",
+        "length stiffness k_L",
+        "N/m",
+        "Stiffness of the edge-length (shear) term.",
+        0.0,
+        1e12,
+    );
+    /// Stiffness of the shell's hinge (bending) term; not zero, so that a modal analysis stays regular.
+    pub const K_BEND: ParamSpec = ParamSpec::linear(
+        "k_bend",
+        "bending stiffness k_B",
+        "N·m",
+        "Stiffness of the hinge (flexural) term.",
+        1e-9,
+        1e12,
+    );
+    /// Mass per unit area, lumped to the vertices.
+    pub const DENSITY: ParamSpec =
+        ParamSpec::linear("density", "density", "kg/m²", "Surface density, lumped to the vertices.", 1e-6, 1e4);
+    /// The vertical component of gravity.
+    pub const GRAVITY_Y: ParamSpec = ParamSpec::linear(
+        "gravity_y",
+        "gravity y",
+        "m/s²",
+        "Vertical gravity component (negative is down; x and z come from the scene).",
+        -1e4,
+        1e4,
+    );
+    /// Rayleigh damping's mass-proportional coefficient.
+    pub const RAYLEIGH_ALPHA: ParamSpec =
+        ParamSpec::linear("rayleigh_alpha", "mass damping α", "1/s", "Rayleigh damping C = αM + βK₀.", 0.0, 1e4);
+    /// Rayleigh damping's stiffness-proportional coefficient.
+    pub const RAYLEIGH_BETA: ParamSpec =
+        ParamSpec::linear("rayleigh_beta", "stiffness damping β", "s", "Rayleigh damping C = αM + βK₀.", 0.0, 1e4);
 }
 
 #[cfg(test)]
@@ -84,6 +197,12 @@ mod tests {
         let n = ParamSpec { integer: true, ..K };
         assert!(n.check(2.5).is_err());
         assert_eq!(n.check(3.0), Ok(3.0));
-        assert!(matches!(ParamSpec::find("m", &[K], "q"), Err(SolverError::UnknownParam { .. })));
+        let table = [Param::new(n, |x: &f64| *x, |x, v| *x = v, Redo::Forces)];
+        let mut x = 1.0;
+        assert_eq!(assign(&table, &mut x, "k", 4.0), Ok(Some(Redo::Forces)));
+        assert_eq!((x, values(&table, &x)[0].value), (4.0, 4.0));
+        assert_eq!(assign(&table, &mut x, "q", 1.0), Ok(None));
+        assert!(assign(&table, &mut x, "k", 2.5).is_err(), "checked against the spec");
+        assert_eq!(x, 4.0, "a refused value is not stored");
     }
 }

@@ -16,6 +16,7 @@
 //!   measures the distance to the nearest equilibrium: where the shell has several (a buckled and an
 //!   unbuckled branch), a shape near another branch than the reference's is judged by that one.
 
+use super::params::shared::{DENSITY, GRAVITY_Y, K_AREA, K_BEND, K_LENGTH};
 use glam::DVec3;
 
 use super::run::distance;
@@ -93,11 +94,11 @@ pub fn with_params(setup: &Setup, params: &[super::ParamValue]) -> Setup {
     for p in params {
         let m = &mut s.scene.material;
         match p.spec.name {
-            "k_area" => m.k_area = p.value,
-            "k_length" => m.k_length = p.value,
-            "k_bend" => m.k_bend = p.value,
-            "density" => m.density = p.value,
-            "gravity" | "gravity_y" => s.scene.gravity[1] = p.value,
+            n if n == K_AREA.name => m.k_area = p.value,
+            n if n == K_LENGTH.name => m.k_length = p.value,
+            n if n == K_BEND.name => m.k_bend = p.value,
+            n if n == DENSITY.name => m.density = p.value,
+            n if n == GRAVITY_Y.name => s.scene.gravity[1] = p.value,
             _ => {}
         }
     }

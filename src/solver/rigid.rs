@@ -11,6 +11,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
+use super::params::{self, Param, Redo};
 use super::{DragKind, DragSet, ParamSpec, ParamValue, Solver, SolverError, StepStats};
 use super::{Footprint, Method};
 use crate::scene::Setup;
@@ -31,25 +32,34 @@ pub const FAULTY: Method = Method {
     footprint: Footprint::PARTICLES,
 };
 
-const FAULT: ParamSpec = ParamSpec {
-    name: "fault",
-    label: "fault",
-    unit: "",
-    help: "1: the next step panics; 2: the next step never returns (tests of the window's recovery).",
-    min: 0.0,
-    max: 2.0,
-    integer: true,
-};
+/// The rigid follower's parameter.
+const PARAMS: &[Param<Rigid>] = &[Param::new(
+    ParamSpec::linear("step", "time step", "s", "Fixed time step of the rigid follower.", 1e-6, 1.0),
+    |r| r.step,
+    |r, v| r.step = v,
+    Redo::Nothing,
+)];
 
-const PARAMS: [ParamSpec; 1] = [ParamSpec {
-    name: "step",
-    label: "time step",
-    unit: "s",
-    help: "Fixed time step of the rigid follower.",
-    min: 1e-6,
-    max: 1.0,
-    integer: false,
-}];
+/// The faulty follower's parameters: the rigid one's and the fault.
+const FAULTY_PARAMS: &[Param<Rigid>] = &[
+    PARAMS[0],
+    Param::new(
+        ParamSpec {
+            integer: true,
+            ..ParamSpec::linear(
+                "fault",
+                "fault",
+                "",
+                "1: the next step panics; 2: the next step never returns (tests of the window's recovery).",
+                0.0,
+                2.0,
+            )
+        },
+        |r| r.fault.map_or(0.0, f64::from),
+        |r, v| r.fault = Some(v as u8),
+        Redo::Nothing,
+    ),
+];
 
 /// The rigid follower.
 struct Rigid {
@@ -63,8 +73,13 @@ struct Rigid {
 }
 
 impl Rigid {
+    /// Its parameter table: the faulty follower's has the fault too.
+    fn table(&self) -> &'static [Param<Rigid>] {
+        if self.fault.is_some() { FAULTY_PARAMS } else { PARAMS }
+    }
+
     fn new(setup: &Setup, faulty: bool) -> Result<Self, SolverError> {
-        let step = PARAMS[0].check(setup.scene.solver.step.unwrap_or(1.0 / 30.0))?;
+        let step = PARAMS[0].spec.check(setup.scene.solver.step.unwrap_or(1.0 / 30.0))?;
         let rest = setup.mesh.positions().to_vec();
         let fault = faulty.then_some(0);
         Ok(Self { positions: rest.clone(), drags: DragSet::new(rest.len(), false), rest, step, steps: 0, fault })
@@ -117,20 +132,11 @@ impl Solver for Rigid {
     }
 
     fn params(&self) -> Vec<ParamValue> {
-        let step = ParamValue { spec: PARAMS[0], value: self.step };
-        match self.fault {
-            Some(armed) => vec![step, ParamValue { spec: FAULT, value: f64::from(armed) }],
-            None => vec![step],
-        }
+        params::values(self.table(), self)
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
-        match self.fault {
-            Some(_) if name == FAULT.name => self.fault = Some(FAULT.check(value)? as u8),
-            Some(_) => self.step = ParamSpec::find(FAULTY.name, &[PARAMS[0], FAULT], name)?.check(value)?,
-            None => self.step = ParamSpec::find(METHOD.name, &PARAMS, name)?.check(value)?,
-        }
-        Ok(())
+        params::set(self.table(), self, name, value).map(drop)
     }
 
     fn drags(&self) -> &DragSet {

@@ -11,30 +11,25 @@
 
 use glam::DVec3;
 
+use super::params::shared::{DENSITY, GRAVITY_Y, K_AREA, K_BEND, K_LENGTH, RAYLEIGH_ALPHA, RAYLEIGH_BETA};
+use super::params::{self, Param, Redo};
 use super::wind::Wind;
-use super::{DragKind, DragSet, ParamSpec, ParamValue, SolverError};
+use super::{DragKind, DragSet, ParamValue, SolverError};
 use crate::energy::{DiscreteShell, HessianMode, ShellStiffness};
 use crate::linalg::{BlockAssembler, DofMap, SparseCholesky};
 use crate::mesh::TriMesh;
 use crate::scene::Setup;
 
-const fn spec(name: &'static str, label: &'static str, unit: &'static str, help: &'static str) -> ParamSpec {
-    ParamSpec { name, label, unit, help, min: 0.0, max: 1e12, integer: false }
-}
-
-/// Parameters every DS method has, in this order.
-pub(crate) const SHELL_PARAMS: [ParamSpec; 7] = [
-    spec("k_area", "area stiffness k_A", "N/m", "Stiffness of the triangle-area (stretch) term."),
-    spec("k_length", "length stiffness k_L", "N/m", "Stiffness of the edge-length (shear) term."),
-    spec("k_bend", "bending stiffness k_B", "N·m", "Stiffness of the hinge (flexural) term."),
-    ParamSpec { min: 1e-9, ..spec("density", "density", "kg/m²", "Surface density; lumped to vertices.") },
-    ParamSpec {
-        min: -1e4,
-        max: 1e4,
-        ..spec("gravity_y", "gravity y", "m/s²", "Vertical gravity component (x and z come from the scene).")
-    },
-    ParamSpec { max: 1e4, ..spec("rayleigh_alpha", "mass damping α", "1/s", "Rayleigh damping C = αM + βK₀.") },
-    ParamSpec { max: 1e4, ..spec("rayleigh_beta", "stiffness damping β", "s", "Rayleigh damping C = αM + βK₀.") },
+/// The parameters every DS method has, in this order: the shell's stiffnesses, density, gravity and
+/// damping (the wind's follow them).
+const SHELL_PARAMS: &[Param<ShellModel>] = &[
+    Param::new(K_AREA, |m| m.stiffness.k_area, |m, v| m.stiffness.k_area = v, Redo::Forces),
+    Param::new(K_LENGTH, |m| m.stiffness.k_length, |m, v| m.stiffness.k_length = v, Redo::Forces),
+    Param::new(K_BEND, |m| m.stiffness.k_bend, |m, v| m.stiffness.k_bend = v, Redo::Forces),
+    Param::new(DENSITY, |m| m.density, |m, v| m.density = v, Redo::Forces),
+    Param::new(GRAVITY_Y, |m| m.gravity.y, |m, v| m.gravity.y = v, Redo::Forces),
+    Param::new(RAYLEIGH_ALPHA, |m| m.alpha, |m, v| m.alpha = v, Redo::Nothing),
+    Param::new(RAYLEIGH_BETA, |m| m.beta, |m, v| m.beta = v, Redo::Nothing),
 ];
 
 /// The discrete-shell system: energy, masses, constraints and forces of one scene.
@@ -42,6 +37,8 @@ pub(crate) const SHELL_PARAMS: [ParamSpec; 7] = [
 pub struct ShellModel {
     /// The elastic energy.
     pub shell: DiscreteShell,
+    /// The stiffnesses the parameters set (the shell takes them on the next [`Redo::Forces`]).
+    stiffness: ShellStiffness,
     mesh: TriMesh,
     anchored: Vec<bool>,
     drag_revision: u64,
@@ -76,6 +73,7 @@ impl ShellModel {
         let asm = shell.hessian_pattern(&dofs).map_err(|e| SolverError::Numerical(e.to_string()))?;
         let mut model = Self {
             shell,
+            stiffness: k,
             mesh: setup.mesh.clone(),
             anchored,
             drag_revision: 0,
@@ -259,38 +257,27 @@ impl ShellModel {
 
     /// Current values of [`SHELL_PARAMS`] and the wind's.
     pub(crate) fn params(&self) -> Vec<ParamValue> {
-        let k = self.shell.stiffness();
-        let values = [k.k_area, k.k_length, k.k_bend, self.density, self.gravity.y, self.alpha, self.beta];
-        let mut p: Vec<ParamValue> =
-            SHELL_PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect();
-        p.extend(self.wind.params());
-        p
+        [params::values(SHELL_PARAMS, self), self.wind.params()].concat()
     }
 
     /// Set one of [`SHELL_PARAMS`] or the wind's; `Ok(false)` if `name` is none of them.
-    pub(crate) fn set_param(&mut self, method: &'static str, name: &str, value: f64) -> Result<bool, SolverError> {
+    pub(crate) fn set_param(&mut self, name: &str, value: f64) -> Result<bool, SolverError> {
         if self.wind.set_param(name, value)? {
             return Ok(true);
         }
-        let Some(spec) = SHELL_PARAMS.iter().find(|s| s.name == name) else { return Ok(false) };
-        let value = ParamSpec::find(method, &SHELL_PARAMS, spec.name)?.check(value)?;
-        let mut k = self.shell.stiffness();
-        match name {
-            "k_area" => k.k_area = value,
-            "k_length" => k.k_length = value,
-            "k_bend" => k.k_bend = value,
-            "density" => self.density = value,
-            "gravity_y" => self.gravity.y = value,
-            "rayleigh_alpha" => self.alpha = value,
-            _ => self.beta = value,
+        match params::assign(SHELL_PARAMS, self, name, value)? {
+            None => return Ok(false),
+            Some(Redo::Nothing) => {}
+            Some(_) => {
+                self.shell.set_stiffness(self.stiffness).map_err(|e| SolverError::BadParam {
+                    name: name.into(),
+                    value,
+                    reason: e.to_string(),
+                })?;
+                self.k0 = None;
+                self.update_forces();
+            }
         }
-        self.shell.set_stiffness(k).map_err(|e| SolverError::BadParam {
-            name: name.into(),
-            value,
-            reason: e.to_string(),
-        })?;
-        self.k0 = None;
-        self.update_forces();
         Ok(true)
     }
 }

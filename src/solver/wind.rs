@@ -11,18 +11,26 @@
 use glam::DVec3;
 
 use crate::scene::WindSpec;
+use crate::solver::params::{self, Param, Redo};
 use crate::solver::{ParamSpec, ParamValue, SolverError};
 
 const fn spec(name: &'static str, label: &'static str, unit: &'static str, help: &'static str) -> ParamSpec {
     ParamSpec { name, label, unit, help, min: -100.0, max: 100.0, integer: false }
 }
 
+const WIND_X: ParamSpec =
+    spec("wind_x", "wind x", "m/s", "Mean air velocity, x component (drag on the cloth's or shell's triangles).");
+const WIND_Y: ParamSpec = spec("wind_y", "wind y", "m/s", "Mean air velocity, y component.");
+const WIND_Z: ParamSpec = spec("wind_z", "wind z", "m/s", "Mean air velocity, z component.");
+const GUST: ParamSpec =
+    ParamSpec { min: 0.0, max: 1.0, ..spec("wind_gust", "gusts", "", "Relative amplitude of the gusts (0: steady).") };
+
 /// The wind's parameters, the same in every method's panel: the mean air velocity and the gusts.
-pub const PARAMS: [ParamSpec; 4] = [
-    spec("wind_x", "wind x", "m/s", "Mean air velocity, x component (drag on the cloth's or shell's triangles)."),
-    spec("wind_y", "wind y", "m/s", "Mean air velocity, y component."),
-    spec("wind_z", "wind z", "m/s", "Mean air velocity, z component."),
-    ParamSpec { min: 0.0, max: 1.0, ..spec("wind_gust", "gusts", "", "Relative amplitude of the gusts (0: steady).") },
+pub const PARAMS: &[Param<Wind>] = &[
+    Param::new(WIND_X, |w| w.velocity.x, |w, v| w.velocity.x = v, Redo::Nothing),
+    Param::new(WIND_Y, |w| w.velocity.y, |w, v| w.velocity.y = v, Redo::Nothing),
+    Param::new(WIND_Z, |w| w.velocity.z, |w, v| w.velocity.z = v, Redo::Nothing),
+    Param::new(GUST, |w| w.gust, |w, v| w.gust = v, Redo::Nothing),
 ];
 
 /// The wind of a scene.
@@ -84,21 +92,12 @@ impl Wind {
 
     /// Current values of [`PARAMS`].
     pub fn params(&self) -> Vec<ParamValue> {
-        let values = [self.velocity.x, self.velocity.y, self.velocity.z, self.gust];
-        PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect()
+        params::values(PARAMS, self)
     }
 
     /// Set one of [`PARAMS`] (checked against its range); `Ok(false)` if `name` is not one of them.
     pub fn set_param(&mut self, name: &str, value: f64) -> Result<bool, SolverError> {
-        let Some(spec) = PARAMS.iter().find(|s| s.name == name) else { return Ok(false) };
-        let value = spec.check(value)?;
-        match name {
-            "wind_x" => self.velocity.x = value,
-            "wind_y" => self.velocity.y = value,
-            "wind_z" => self.velocity.z = value,
-            _ => self.gust = value,
-        }
-        Ok(true)
+        Ok(params::assign(PARAMS, self, name, value)?.is_some())
     }
 
     /// `base` plus the wind's force on every vertex (N), for the mesh at `positions` moving with

@@ -329,17 +329,16 @@ impl Experiment for AutoModel {
                 points: vec![(span.0, span.0), (span.1, span.1)],
             });
         }
-        let file = format!("{}-estimates.png", self.name());
         add_chart(
-            &mut section,
-            out,
-            file,
             Plot {
                 title: "Error estimates of the chooser against the true errors".into(),
                 x: Axis::log("true relative error (against the reference)"),
                 y: Axis::log("estimated relative error"),
                 series,
             },
+            &mut section,
+            out,
+            "estimates",
             "the chooser's error estimates against the true errors".into(),
         )?;
         Ok(section)

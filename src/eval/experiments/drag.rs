@@ -232,17 +232,16 @@ impl Experiment for Drags {
                         .collect(),
                 })
                 .collect();
-            let file = format!("{}-{scene}-error.png", self.name());
             add_chart(
-                &mut section,
-                out,
-                file,
                 Plot {
                     title: format!("{scene}: error against the walked discrete shell"),
                     x: Axis::log(unit),
                     y: Axis::log("relative displacement error |u − u_ref| / |u_ref|"),
                     series,
                 },
+                &mut section,
+                out,
+                &format!("{scene}-error"),
                 format!("{scene}: error against the size of the {kind}, 8 modes (errors below {FLOOR:e} drawn at it)"),
             )?;
             for size in rows.iter().map(|r| r[zi].num()).fold(Vec::<f64>::new(), |mut v, z| {

@@ -195,17 +195,16 @@ impl Experiment for PaperFig4 {
                 series.push(Series { label: format!("{method}, {beam}"), color: method_color(method), style, points });
             }
         }
-        let file = format!("{}-tip.png", self.name());
         add_chart(
-            &mut section,
-            out,
-            file,
             Plot {
                 title: "Tip deflection under gravity against bending stiffness".into(),
                 x: Axis::log("bending stiffness k_B / k_B(×1)"),
                 y: Axis::log("tip deflection (m)"),
                 series,
             },
+            &mut section,
+            out,
+            "tip",
             "tip deflection of the flat beam (solid) and the V-beam (dashed)".into(),
         )?;
         // The tiles: flat beams on the first row, V-beams on the second.

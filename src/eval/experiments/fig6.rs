@@ -172,30 +172,28 @@ impl Experiment for PaperFig6 {
                     })
                     .collect()
             };
-            let file = format!("{}-{scene}-error.png", self.name());
             add_chart(
-                &mut section,
-                out,
-                file,
                 Plot {
                     title: format!("{scene}: displacement error against the static reference"),
                     x: Axis::log("gravity (m/s²)"),
                     y: Axis::log("relative displacement error |u − u_ref| / |u_ref|"),
                     series: series(ei, &["lma", "mwts", "ds-implicit", "ds"], false),
                 },
-                format!("{scene}: relative displacement error against gravity"),
-            )?;
-            let file = format!("{}-{scene}-area.png", self.name());
-            add_chart(
                 &mut section,
                 out,
-                file,
+                &format!("{scene}-error"),
+                format!("{scene}: relative displacement error against gravity"),
+            )?;
+            add_chart(
                 Plot {
                     title: format!("{scene}: relative area change"),
                     x: Axis::log("gravity (m/s²)"),
                     y: Axis::log("relative area change |A − A₀|/A₀"),
                     series: series(ai, &["lma", "mwts", "ds-implicit", "ds", "ds-static"], true),
                 },
+                &mut section,
+                out,
+                &format!("{scene}-area"),
                 format!("{scene}: relative area change against gravity"),
             )?;
             // Findings: MWTS against LMA at every plotted level; the area-change fraction.

@@ -33,8 +33,9 @@ fn chart_ref(file: String, caption: String) -> ChartRef {
     ChartRef { file, caption, size: chart::SIZE }
 }
 
-/// Draw `plot` into `out/file` and list it in `section` under `caption`.
-fn add_chart(section: &mut Section, out: &Path, file: String, plot: Plot, caption: String) -> Result<(), EvalError> {
+/// Draw `plot` into `out` as `EXPERIMENT-NAME.png` and list it in `section` under `caption`.
+fn add_chart(plot: Plot, section: &mut Section, out: &Path, name: &str, caption: String) -> Result<(), EvalError> {
+    let file = format!("{}-{name}.png", section.experiment);
     plot.save(&out.join(&file))?;
     section.charts.push(chart_ref(file, caption));
     Ok(())

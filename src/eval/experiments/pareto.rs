@@ -240,17 +240,16 @@ impl Experiment for Pareto {
                 style: Style::Guide,
                 points: front.iter().map(|&i| point(i)).collect(),
             });
-            let file = format!("{}-{family}.png", self.name());
             add_chart(
-                &mut section,
-                out,
-                file,
                 Plot {
                     title: format!("{title}: cost against error"),
                     x: Axis::log("cost (wall-clock s per simulated s)"),
                     y: Axis::log("relative displacement error"),
                     series,
                 },
+                &mut section,
+                out,
+                family,
                 format!("{family}: cost against error, Pareto front dashed"),
             )?;
             let listed: Vec<String> = front

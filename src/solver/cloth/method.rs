@@ -12,7 +12,9 @@ use crate::collision::Body;
 use crate::linalg::filtered_pcg::{self, Constraint, PcgReport, Stop};
 use crate::linalg::padded::PaddedMat3;
 use crate::scene::{MeshSource, Setup};
-use crate::solver::wind::{self, Wind};
+use crate::solver::params::shared::{DENSITY, GRAVITY_Y};
+use crate::solver::params::{self, Param, Redo};
+use crate::solver::wind::Wind;
 use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Solver, SolverError, StepStats, check_finite};
 use crate::solver::{Footprint, Method};
 
@@ -45,47 +47,59 @@ const fn spec(name: &'static str, label: &'static str, unit: &'static str, help:
     ParamSpec { name, label, unit, help, min: 0.0, max, integer: false }
 }
 
-/// The parameters of both cloth methods, in panel order.
-const PARAMS: [ParamSpec; 12] = [
-    spec("k_s", "stretch stiffness k_s", "N/m", "Edge springs: resist stretch only (per spring).", 1e7),
-    spec(
-        "k_b",
-        "bending rigidity k_b",
-        "N·m",
-        "Diagonal springs: bending rigidity per unit width (a spring gets k_b × the width it stands for).",
-        1e3,
-    ),
-    spec(
-        "c_b",
-        "buckling linear branch c_b",
-        "N/m",
-        "Diagonal springs near rest: c_b (|x| − L), used until buckling pushes harder; about k_s.",
-        1e7,
-    ),
-    spec("k_d", "spring damping k_d", "N·s/m", "Damping of the relative velocity of every connected pair.", 1e3),
-    spec("mu_s", "static friction μ_s", "", "A contact sticks while tangential force ≤ μ_s × normal force.", 10.0),
-    spec("mu_k", "kinetic friction μ_k", "", "A sliding contact feels μ_k × normal force against its motion.", 10.0),
-    ParamSpec { min: 1e-6, ..spec("density", "density", "kg/m²", "Surface density; lumped to particles.", 1e4) },
-    ParamSpec {
-        min: -1e3,
-        ..spec("gravity_y", "gravity y", "m/s²", "Vertical gravity (x and z from the scene).", 1e3)
-    },
-    ParamSpec { min: 1e-5, ..spec("step", "time step", "s", "Backward Euler step (the paper: 0.01 s).", 0.1) },
-    ParamSpec {
-        min: 1.0,
-        integer: true,
-        ..spec("iterations", "PCG iterations", "", "Cap on PCG iterations per step.", 1e5)
-    },
-    ParamSpec {
-        min: 1e-14,
-        ..spec("tolerance", "PCG tolerance", "", "Stop when the preconditioned residual falls by this factor.", 1.0)
-    },
-    ParamSpec {
-        min: 1e-6,
-        ..spec("margin", "contact margin", "m", "Distance to a body within which a particle is locked to it.", 1.0)
-    },
-];
+const K_S: ParamSpec =
+    spec("k_s", "stretch stiffness k_s", "N/m", "Edge springs: resist stretch only (per spring).", 1e7);
+const K_B: ParamSpec = spec(
+    "k_b",
+    "bending rigidity k_b",
+    "N·m",
+    "Diagonal springs: bending rigidity per unit width (a spring gets k_b × the width it stands for).",
+    1e3,
+);
+const C_B: ParamSpec = spec(
+    "c_b",
+    "buckling linear branch c_b",
+    "N/m",
+    "Diagonal springs near rest: c_b (|x| − L), used until buckling pushes harder; about k_s.",
+    1e7,
+);
+const K_D: ParamSpec =
+    spec("k_d", "spring damping k_d", "N·s/m", "Damping of the relative velocity of every connected pair.", 1e3);
+const MU_S: ParamSpec =
+    spec("mu_s", "static friction μ_s", "", "A contact sticks while tangential force ≤ μ_s × normal force.", 10.0);
+const MU_K: ParamSpec =
+    spec("mu_k", "kinetic friction μ_k", "", "A sliding contact feels μ_k × normal force against its motion.", 10.0);
+const STEP: ParamSpec =
+    ParamSpec { min: 1e-5, ..spec("step", "time step", "s", "Backward Euler step (the paper: 0.01 s).", 0.1) };
+const ITERATIONS: ParamSpec = ParamSpec {
+    min: 1.0,
+    integer: true,
+    ..spec("iterations", "PCG iterations", "", "Cap on PCG iterations per step.", 1e5)
+};
+const TOLERANCE: ParamSpec = ParamSpec {
+    min: 1e-14,
+    ..spec("tolerance", "PCG tolerance", "", "Stop when the preconditioned residual falls by this factor.", 1.0)
+};
+const MARGIN: ParamSpec = ParamSpec {
+    min: 1e-6,
+    ..spec("margin", "contact margin", "m", "Distance to a body within which a particle is locked to it.", 1.0)
+};
 
+/// The parameters of both cloth methods, in panel order (the wind's follow them).
+const PARAMS: &[Param<Cloth>] = &[
+    Param::new(K_S, |c| c.system.params().k_s, |c, v| c.springs(|p| p.k_s = v), Redo::Nothing),
+    Param::new(K_B, |c| c.system.params().k_b, |c, v| c.springs(|p| p.k_b = v), Redo::Nothing),
+    Param::new(C_B, |c| c.system.params().c_b, |c, v| c.springs(|p| p.c_b = v), Redo::Nothing),
+    Param::new(K_D, |c| c.system.params().k_d, |c, v| c.springs(|p| p.k_d = v), Redo::Nothing),
+    Param::new(MU_S, |c| c.contact.mu_s, |c, v| c.contact.mu_s = v, Redo::Nothing),
+    Param::new(MU_K, |c| c.contact.mu_k, |c, v| c.contact.mu_k = v, Redo::Nothing),
+    Param::new(DENSITY, |c| c.density, Cloth::set_density, Redo::Nothing),
+    Param::new(GRAVITY_Y, |c| c.gravity.y, |c, v| c.gravity.y = v, Redo::Nothing),
+    Param::new(STEP, |c| c.h, |c, v| c.h = v, Redo::Nothing),
+    Param::new(ITERATIONS, |c| f64::from(c.iterations), |c, v| c.iterations = v as u32, Redo::Nothing),
+    Param::new(TOLERANCE, |c| c.tolerance, |c, v| c.tolerance = v, Redo::Nothing),
+    Param::new(MARGIN, |c| c.contact.margin, |c, v| c.contact.margin = v, Redo::Nothing),
+];
 /// One step's linear system `A Δv = b` (with `A` applied by the [`ClothSystem`]'s
 /// [`Operator`](filtered_pcg::Operator) product).
 #[derive(Debug, Clone, Default)]
@@ -149,6 +163,21 @@ pub struct Cloth {
 }
 
 impl Cloth {
+    /// Change the spring parameters through `edit` (the system rebuilds what they change).
+    fn springs(&mut self, edit: impl FnOnce(&mut SpringParams)) {
+        let mut p = self.system.params();
+        edit(&mut p);
+        if p != self.system.params() {
+            self.system.set_params(p);
+        }
+    }
+
+    /// Change the density: the particles' masses scale with it.
+    fn set_density(&mut self, density: f64) {
+        self.system.scale_masses(density / self.density);
+        self.density = density;
+    }
+
     /// Build from a realised scene (material `k_s`, `k_b`, `c_b`, `k_d`, `mu_s`, `mu_k`, `density`;
     /// solver `step` (default 0.01 s), `iterations`, `tolerance`, `margin`).
     pub fn new(setup: &Setup, variant: Variant) -> Result<Self, SolverError> {
@@ -170,24 +199,21 @@ impl Cloth {
                 return Err(SolverError::Unsuitable { method, reason: "it needs a regular `grid` mesh".into() });
             }
         };
-        let check = |name: &str, value: f64| -> Result<f64, SolverError> {
-            ParamSpec::find(method, &PARAMS, name)?.check(value)
-        };
         let params = SpringParams {
-            k_s: check("k_s", m.k_s)?,
-            k_b: check("k_b", m.k_b)?,
-            c_b: check("c_b", m.c_b)?,
-            k_d: check("k_d", m.k_d)?,
+            k_s: K_S.check(m.k_s)?,
+            k_b: K_B.check(m.k_b)?,
+            c_b: C_B.check(m.c_b)?,
+            k_d: K_D.check(m.k_d)?,
         };
         let contact = ContactParams {
-            margin: check("margin", s.margin.unwrap_or(DEFAULT_MARGIN))?,
-            mu_s: check("mu_s", m.mu_s)?,
-            mu_k: check("mu_k", m.mu_k)?,
+            margin: MARGIN.check(s.margin.unwrap_or(DEFAULT_MARGIN))?,
+            mu_s: MU_S.check(m.mu_s)?,
+            mu_k: MU_K.check(m.mu_k)?,
         };
-        let h = check("step", s.step.unwrap_or(0.01))?;
-        let iterations = check("iterations", s.iterations as f64)? as u32;
-        let tolerance = check("tolerance", s.tolerance)?;
-        let density = check("density", m.density)?;
+        let h = STEP.check(s.step.unwrap_or(0.01))?;
+        let iterations = ITERATIONS.check(s.iterations as f64)? as u32;
+        let tolerance = TOLERANCE.check(s.tolerance)?;
+        let density = DENSITY.check(m.density)?;
         let rest = setup.mesh.positions().to_vec();
         let n = rest.len();
         let total_mass: f64 = graph.masses.iter().sum();
@@ -373,53 +399,12 @@ impl Solver for Cloth {
     }
 
     fn params(&self) -> Vec<ParamValue> {
-        let p = self.system.params();
-        let values = [
-            p.k_s,
-            p.k_b,
-            p.c_b,
-            p.k_d,
-            self.contact.mu_s,
-            self.contact.mu_k,
-            self.density,
-            self.gravity.y,
-            self.h,
-            f64::from(self.iterations),
-            self.tolerance,
-            self.contact.margin,
-        ];
-        let mut all: Vec<ParamValue> =
-            PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect();
-        all.extend(self.wind.params());
-        all
+        [params::values(PARAMS, self), self.wind.params()].concat()
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
-        if self.wind.set_param(name, value)? {
-            return Ok(());
-        }
-        let all: Vec<ParamSpec> = PARAMS.iter().chain(&wind::PARAMS).copied().collect();
-        let value = ParamSpec::find(self.method, &all, name)?.check(value)?;
-        let mut p = self.system.params();
-        match name {
-            "k_s" => p.k_s = value,
-            "k_b" => p.k_b = value,
-            "c_b" => p.c_b = value,
-            "k_d" => p.k_d = value,
-            "mu_s" => self.contact.mu_s = value,
-            "mu_k" => self.contact.mu_k = value,
-            "density" => {
-                self.system.scale_masses(value / self.density);
-                self.density = value;
-            }
-            "gravity_y" => self.gravity.y = value,
-            "step" => self.h = value,
-            "iterations" => self.iterations = value as u32,
-            "tolerance" => self.tolerance = value,
-            _ => self.contact.margin = value,
-        }
-        if p != self.system.params() {
-            self.system.set_params(p);
+        if !self.wind.set_param(name, value)? {
+            params::set(PARAMS, self, name, value)?;
         }
         Ok(())
     }

@@ -23,8 +23,10 @@ use super::rotation_strain::RotationStrain;
 use crate::energy::ShellStiffness;
 use crate::mesh::TriMesh;
 use crate::scene::Setup;
+use crate::solver::params::shared::{DENSITY, GRAVITY_Y, K_AREA, K_BEND, K_LENGTH, RAYLEIGH_ALPHA, RAYLEIGH_BETA};
+use crate::solver::params::{self, Param, Redo};
 use crate::solver::supersede::{Generation, unless_superseded};
-use crate::solver::wind::{self, Wind};
+use crate::solver::wind::Wind;
 use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
 use crate::solver::{Footprint, Method};
 
@@ -84,43 +86,41 @@ impl Variant {
     }
 }
 
-const PARAMS: [ParamSpec; 10] = [
-    ParamSpec::linear("k_area", "k_A (area)", "N/m", "Area (stretch) stiffness of the shell.", 0.0, 1e9),
-    ParamSpec::linear("k_length", "k_L (length)", "N/m", "Edge-length (shear) stiffness.", 0.0, 1e9),
-    ParamSpec::linear("k_bend", "k_B (bending)", "N·m", "Bending (hinge) stiffness.", 1e-9, 1e6),
-    ParamSpec::linear("density", "density", "kg/m²", "Surface density (lumped mass).", 1e-6, 1e4),
-    ParamSpec::linear(
-        "gravity",
-        "gravity y",
-        "m/s²",
-        "Vertical gravity acceleration (negative is down).",
-        -1000.0,
-        1000.0,
-    ),
-    ParamSpec::linear("rayleigh_alpha", "Rayleigh α", "1/s", "Mass-proportional damping C = αM + βK.", 0.0, 1000.0),
-    ParamSpec::linear("rayleigh_beta", "Rayleigh β", "s", "Stiffness-proportional damping C = αM + βK.", 0.0, 10.0),
-    ParamSpec {
-        integer: true,
-        ..ParamSpec::linear(
-            "modes",
-            "modes",
-            "",
-            "Number of vibration modes (recomputed in the background).",
-            1.0,
-            256.0,
-        )
-    },
-    ParamSpec::linear("step", "time step", "s", "Fixed step of the modal integrator.", 1e-5, 0.1),
-    ParamSpec::linear(
-        "constraint_damping",
-        "drag damping",
-        "",
-        "Relative Tikhonov damping of over-determined drags.",
-        1e-12,
-        1.0,
+/// The number of modes.
+const MODES: ParamSpec = ParamSpec {
+    integer: true,
+    ..ParamSpec::linear("modes", "modes", "", "Number of vibration modes (recomputed in the background).", 1.0, 256.0)
+};
+/// The modal integrator's step.
+const STEP: ParamSpec = ParamSpec::linear("step", "time step", "s", "Fixed step of the modal integrator.", 1e-5, 0.1);
+/// The damping of over-determined drags.
+const CONSTRAINT_DAMPING: ParamSpec = ParamSpec::linear(
+    "constraint_damping",
+    "drag damping",
+    "",
+    "Relative Tikhonov damping of over-determined drags.",
+    1e-12,
+    1.0,
+);
+
+/// The modal methods' parameters (the wind's follow them).
+const PARAMS: &[Param<ModalSolver>] = &[
+    Param::new(K_AREA, |m| m.request.stiffness.k_area, |m, v| m.request.stiffness.k_area = v, Redo::Modes),
+    Param::new(K_LENGTH, |m| m.request.stiffness.k_length, |m, v| m.request.stiffness.k_length = v, Redo::Modes),
+    Param::new(K_BEND, |m| m.request.stiffness.k_bend, |m, v| m.request.stiffness.k_bend = v, Redo::Modes),
+    Param::new(DENSITY, |m| m.request.density, |m, v| m.request.density = v, Redo::Modes),
+    Param::new(GRAVITY_Y, |m| m.gravity.y, |m, v| m.gravity.y = v, Redo::Forces),
+    Param::new(RAYLEIGH_ALPHA, |m| m.params.alpha, |m, v| m.params.alpha = v, Redo::Nothing),
+    Param::new(RAYLEIGH_BETA, |m| m.params.beta, |m, v| m.params.beta = v, Redo::Nothing),
+    Param::new(MODES, |m| m.request.modes as f64, |m, v| m.request.modes = v as usize, Redo::Modes),
+    Param::new(STEP, |m| m.params.step, |m, v| m.params.step = v, Redo::Nothing),
+    Param::new(
+        CONSTRAINT_DAMPING,
+        |m| m.params.constraint_damping,
+        |m, v| m.params.constraint_damping = v,
+        Redo::Nothing,
     ),
 ];
-
 /// A basis being recomputed in the background.
 struct Pending {
     receiver: Receiver<Result<ModalAnalysis, SolverError>>,
@@ -225,10 +225,10 @@ impl ModalSolver {
         let analysis = request.run(&|_| {}).map_err(|e| named(e, method))?;
         let shape = variant.shape(&setup.mesh, &setup.anchors, &analysis.basis)?;
         let params = ModalParams {
-            step: PARAMS[8].check(s.step.unwrap_or(1.0 / 30.0))?,
+            step: STEP.check(s.step.unwrap_or(1.0 / 30.0))?,
             alpha: s.rayleigh_alpha,
             beta: s.rayleigh_beta,
-            constraint_damping: PARAMS[9].check(s.constraint_damping.unwrap_or(1e-2))?,
+            constraint_damping: CONSTRAINT_DAMPING.check(s.constraint_damping.unwrap_or(1e-2))?,
         };
         let mut solver = Self {
             method,
@@ -426,48 +426,21 @@ impl Solver for ModalSolver {
     }
 
     fn params(&self) -> Vec<ParamValue> {
-        let values = [
-            self.request.stiffness.k_area,
-            self.request.stiffness.k_length,
-            self.request.stiffness.k_bend,
-            self.request.density,
-            self.gravity.y,
-            self.params.alpha,
-            self.params.beta,
-            self.request.modes as f64,
-            self.params.step,
-            self.params.constraint_damping,
-        ];
-        let mut all: Vec<ParamValue> =
-            PARAMS.iter().zip(values).map(|(&spec, value)| ParamValue { spec, value }).collect();
-        all.extend(self.wind.params());
-        all
+        [params::values(PARAMS, self), self.wind.params()].concat()
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
         if self.wind.set_param(name, value)? {
             return Ok(());
         }
-        let all: Vec<ParamSpec> = PARAMS.iter().chain(&wind::PARAMS).copied().collect();
-        let value = ParamSpec::find(self.method, &all, name)?.check(value)?;
-        let needs_modes = matches!(name, "k_area" | "k_length" | "k_bend" | "density" | "modes");
-        match name {
-            "k_area" => self.request.stiffness.k_area = value,
-            "k_length" => self.request.stiffness.k_length = value,
-            "k_bend" => self.request.stiffness.k_bend = value,
-            "density" => self.request.density = value,
-            "modes" => self.request.modes = value as usize,
-            "gravity" => self.gravity.y = value,
-            "rayleigh_alpha" => self.params.alpha = value,
-            "rayleigh_beta" => self.params.beta = value,
-            "step" => self.params.step = value,
-            _ => self.params.constraint_damping = value,
-        }
-        if matches!(name, "density" | "gravity") {
-            self.update_forces();
-        }
-        if needs_modes {
-            self.recompute();
+        match params::set(PARAMS, self, name, value)? {
+            Redo::Nothing => {}
+            Redo::Forces => self.update_forces(),
+            Redo::Modes => {
+                // The masses follow the density at once; the stiffnesses and the count with the new modes.
+                self.update_forces();
+                self.recompute();
+            }
         }
         Ok(())
     }

@@ -1,204 +1,176 @@
-//! The parameters of `pbd` and `xpbd` as the panel, `--set` and the evaluator see them: their specs
-//! (range, unit, help) and how each reads and writes the solver.
+//! The parameters of `pbd` and `xpbd` as the panel, `--set` and the evaluator see them: one table
+//! entry each, with its spec (range, unit, help) and how it reads and writes the solver.
 
 use super::{Pbd, Variant};
-use crate::solver::wind;
+use crate::solver::params::shared::{DENSITY, GRAVITY_Y};
+use crate::solver::params::{self, Param, Redo};
 use crate::solver::{ParamSpec, ParamValue, SolverError};
 
+const STEP: ParamSpec =
+    ParamSpec::linear("step", "time step", "s", "One step of the simulation (split into substeps).", 1e-5, 0.1);
+const SWEEPS: ParamSpec = ParamSpec {
+    integer: true,
+    ..ParamSpec::linear("sweeps", "sweeps", "", "Gauss–Seidel sweeps over the constraints per substep.", 1.0, 1000.0)
+};
+const DAMPING: ParamSpec = ParamSpec::linear(
+    "damping",
+    "damping",
+    "1/s",
+    "Velocity damping rate of the cloth and the dynamic bodies (air drag).",
+    0.0,
+    100.0,
+);
+const MU_S: ParamSpec = ParamSpec::linear(
+    "mu_s",
+    "static friction μ_s",
+    "",
+    "A contact sticks while its slip is within μ_s × its normal push.",
+    0.0,
+    10.0,
+);
+const MU_K: ParamSpec = ParamSpec::linear(
+    "mu_k",
+    "kinetic friction μ_k",
+    "",
+    "A sliding contact is slowed by μ_k × its normal push.",
+    0.0,
+    10.0,
+);
+const THICKNESS: ParamSpec = ParamSpec::linear(
+    "thickness",
+    "thickness",
+    "m",
+    "Collision thickness of the cloth (bodies and itself).",
+    1e-6,
+    1.0,
+);
+const LEAST_AREA: ParamSpec = ParamSpec::linear(
+    "least_area",
+    "least area",
+    "",
+    "Least area a triangle keeps, / its rest area (0: free to collapse in its plane and turn over).",
+    0.0,
+    0.99,
+);
+const K_PRESSURE: ParamSpec = ParamSpec::linear(
+    "k_pressure",
+    "pressure k",
+    "",
+    "Balloon: held volume / rest volume (0: no volume constraint; closed meshes only).",
+    0.0,
+    100.0,
+);
+const PBD_STRETCH: ParamSpec = ParamSpec::linear(
+    "pbd_stretch",
+    "stretch k",
+    "",
+    "Stretch stiffness in [0, 1], corrected for the iteration count.",
+    0.0,
+    1.0,
+);
+const PBD_BEND: ParamSpec = ParamSpec::linear(
+    "pbd_bend",
+    "bending k",
+    "",
+    "Bending stiffness in [0, 1], corrected for the iteration count.",
+    0.0,
+    1.0,
+);
+const SUBSTEPS: ParamSpec = ParamSpec {
+    integer: true,
+    ..ParamSpec::linear("substeps", "substeps", "", "Substeps per step (small substeps beat more sweeps).", 1.0, 1000.0)
+};
+const K_S: ParamSpec =
+    ParamSpec::linear("k_s", "stretch stiffness k_s", "N/m", "Edge stiffness: compliance 1/k_s.", 1e-6, 1e9);
+const K_B: ParamSpec =
+    ParamSpec::linear("k_b", "bending rigidity k_b", "N·m", "Hinge stiffness k_b × 6|e|²/(A₁ + A₂).", 0.0, 1e3);
+const COMPRESSION: ParamSpec = ParamSpec::linear(
+    "compression",
+    "compression",
+    "",
+    "Fraction of its stretch stiffness an edge keeps in compression (0: tension only).",
+    0.0,
+    1.0,
+);
+
 /// Parameters both methods have.
-const COMMON: [ParamSpec; 10] = [
-    ParamSpec::linear("step", "time step", "s", "One step of the simulation (split into substeps).", 1e-5, 0.1),
-    ParamSpec {
-        integer: true,
-        ..ParamSpec::linear(
-            "sweeps",
-            "sweeps",
-            "",
-            "Gauss–Seidel sweeps over the constraints per substep.",
-            1.0,
-            1000.0,
-        )
-    },
-    ParamSpec::linear("density", "density", "kg/m²", "Surface density; lumped to particles.", 1e-6, 1e4),
-    ParamSpec::linear("gravity_y", "gravity y", "m/s²", "Vertical gravity (x and z from the scene).", -1e3, 1e3),
-    ParamSpec::linear(
-        "damping",
-        "damping",
-        "1/s",
-        "Velocity damping rate of the cloth and the dynamic bodies (air drag).",
-        0.0,
-        100.0,
-    ),
-    ParamSpec::linear(
-        "mu_s",
-        "static friction μ_s",
-        "",
-        "A contact sticks while its slip is within μ_s × its normal push.",
-        0.0,
-        10.0,
-    ),
-    ParamSpec::linear(
-        "mu_k",
-        "kinetic friction μ_k",
-        "",
-        "A sliding contact is slowed by μ_k × its normal push.",
-        0.0,
-        10.0,
-    ),
-    ParamSpec::linear(
-        "thickness",
-        "thickness",
-        "m",
-        "Collision thickness of the cloth (bodies and itself).",
-        1e-6,
-        1.0,
-    ),
-    ParamSpec::linear(
-        "least_area",
-        "least area",
-        "",
-        "Least area a triangle keeps, / its rest area (0: free to collapse in its plane and turn over).",
-        0.0,
-        0.99,
-    ),
-    ParamSpec::linear(
-        "k_pressure",
-        "pressure k",
-        "",
-        "Balloon: held volume / rest volume (0: no volume constraint; closed meshes only).",
-        0.0,
-        100.0,
-    ),
+const COMMON: &[Param<Pbd>] = &[
+    Param::new(STEP, |p| p.step, |p, v| p.step = v, Redo::Nothing),
+    Param::new(SWEEPS, |p| p.sweeps as f64, |p, v| p.sweeps = v as usize, Redo::Nothing),
+    Param::new(DENSITY, |p| p.density, |p, v| p.density = v, Redo::Nothing),
+    Param::new(GRAVITY_Y, |p| p.gravity.y, |p, v| p.gravity.y = v, Redo::Nothing),
+    Param::new(DAMPING, |p| p.damping, |p, v| p.damping = v, Redo::Nothing),
+    Param::new(MU_S, |p| p.mu.0, |p, v| p.mu.0 = v, Redo::Nothing),
+    Param::new(MU_K, |p| p.mu.1, |p, v| p.mu.1 = v, Redo::Nothing),
+    Param::new(THICKNESS, |p| p.thickness, |p, v| p.thickness = v, Redo::Nothing),
+    Param::new(LEAST_AREA, |p| p.least_area, |p, v| p.least_area = v, Redo::Nothing),
+    Param::new(K_PRESSURE, |p| p.k_pressure, |p, v| p.k_pressure = v, Redo::Nothing),
 ];
 
 /// Parameters of `pbd` only.
-const PBD_PARAMS: [ParamSpec; 2] = [
-    ParamSpec::linear(
-        "pbd_stretch",
-        "stretch k",
-        "",
-        "Stretch stiffness in [0, 1], corrected for the iteration count.",
-        0.0,
-        1.0,
-    ),
-    ParamSpec::linear(
-        "pbd_bend",
-        "bending k",
-        "",
-        "Bending stiffness in [0, 1], corrected for the iteration count.",
-        0.0,
-        1.0,
-    ),
+const PBD_PARAMS: &[Param<Pbd>] = &[
+    Param::new(PBD_STRETCH, |p| p.stiffness.0, |p, v| p.stiffness.0 = v, Redo::Nothing),
+    Param::new(PBD_BEND, |p| p.stiffness.1, |p, v| p.stiffness.1 = v, Redo::Nothing),
 ];
 
 /// Parameters of `xpbd` only.
-const XPBD_PARAMS: [ParamSpec; 4] = [
-    ParamSpec {
-        integer: true,
-        ..ParamSpec::linear(
-            "substeps",
-            "substeps",
-            "",
-            "Substeps per step (small substeps beat more sweeps).",
-            1.0,
-            1000.0,
-        )
-    },
-    ParamSpec::linear("k_s", "stretch stiffness k_s", "N/m", "Edge stiffness: compliance 1/k_s.", 1e-6, 1e9),
-    ParamSpec::linear("k_b", "bending rigidity k_b", "N·m", "Hinge stiffness k_b × 6|e|²/(A₁ + A₂).", 0.0, 1e3),
-    ParamSpec::linear(
-        "compression",
-        "compression",
-        "",
-        "Fraction of its stretch stiffness an edge keeps in compression (0: tension only).",
-        0.0,
-        1.0,
-    ),
+const XPBD_PARAMS: &[Param<Pbd>] = &[
+    Param::new(SUBSTEPS, |p| p.substeps as f64, |p, v| p.substeps = v as usize, Redo::Nothing),
+    Param::new(K_S, |p| p.k_s, Pbd::set_k_s, Redo::Nothing),
+    Param::new(K_B, |p| p.k_b, Pbd::set_k_b, Redo::Nothing),
+    Param::new(COMPRESSION, |p| p.compression, |p, v| p.compression = v, Redo::Nothing),
 ];
 
 /// `value` checked against the range of the parameter `name` of either variant (for `method`'s errors).
 pub(super) fn check(method: &'static str, name: &str, value: f64) -> Result<f64, SolverError> {
-    let all: Vec<ParamSpec> = COMMON.iter().chain(&PBD_PARAMS).chain(&XPBD_PARAMS).copied().collect();
-    ParamSpec::find(method, &all, name)?.check(value)
+    let all = || COMMON.iter().chain(PBD_PARAMS).chain(XPBD_PARAMS);
+    let Some(p) = all().find(|p| p.spec.name == name) else {
+        return Err(params::unknown(method, name, all().map(|p| p.spec.name)));
+    };
+    p.spec.check(value)
 }
 
 impl Pbd {
-    /// The parameters of this variant (the wind's not included).
-    fn all_params(&self) -> Vec<ParamSpec> {
-        let extra: &[ParamSpec] = match self.variant {
-            Variant::Pbd => &PBD_PARAMS,
-            Variant::Xpbd => &XPBD_PARAMS,
-        };
-        COMMON.iter().chain(extra).copied().collect()
+    /// The parameters of this variant besides the common ones.
+    fn own_params(&self) -> &'static [Param<Pbd>] {
+        match self.variant {
+            Variant::Pbd => PBD_PARAMS,
+            Variant::Xpbd => XPBD_PARAMS,
+        }
     }
 
     /// Every parameter with its value, the wind's last.
     pub(super) fn param_values(&self) -> Vec<ParamValue> {
-        self.all_params()
-            .into_iter()
-            .map(|spec| {
-                let value = match spec.name {
-                    "step" => self.step,
-                    "sweeps" => self.sweeps as f64,
-                    "density" => self.density,
-                    "gravity_y" => self.gravity.y,
-                    "damping" => self.damping,
-                    "mu_s" => self.mu.0,
-                    "mu_k" => self.mu.1,
-                    "thickness" => self.thickness,
-                    "k_pressure" => self.k_pressure,
-                    "least_area" => self.least_area,
-                    "pbd_stretch" => self.stiffness.0,
-                    "pbd_bend" => self.stiffness.1,
-                    "substeps" => self.substeps as f64,
-                    "k_s" => self.k_s,
-                    "compression" => self.compression,
-                    _ => self.k_b,
-                };
-                ParamValue { spec, value }
-            })
-            .chain(self.wind.params())
-            .collect()
+        [params::values(COMMON, self), params::values(self.own_params(), self), self.wind.params()].concat()
     }
 
     /// Set the parameter `name` to `value`, checked against its range (and, for the pressure, the mesh).
     pub(super) fn set(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
-        if self.wind.set_param(name, value)? {
+        if name == K_PRESSURE.name && K_PRESSURE.check(value)? > 0.0 && !self.model.is_closed() {
+            return Err(SolverError::BadParam {
+                name: name.into(),
+                value,
+                reason: "needs a closed mesh, and this mesh is not closed".into(),
+            });
+        }
+        if self.wind.set_param(name, value)? || params::assign(COMMON, self, name, value)?.is_some() {
             return Ok(());
         }
-        let all: Vec<ParamSpec> = self.all_params().into_iter().chain(wind::PARAMS).collect();
-        let value = ParamSpec::find(self.method_name(), &all, name)?.check(value)?;
-        match name {
-            "step" => self.step = value,
-            "sweeps" => self.sweeps = value as usize,
-            "density" => self.density = value,
-            "gravity_y" => self.gravity.y = value,
-            "damping" => self.damping = value,
-            "mu_s" => self.mu.0 = value,
-            "mu_k" => self.mu.1 = value,
-            "thickness" => self.thickness = value,
-            "k_pressure" if value > 0.0 && !self.model.is_closed() => {
-                return Err(SolverError::BadParam {
-                    name: name.into(),
-                    value,
-                    reason: "needs a closed mesh, and this mesh is not closed".into(),
-                });
-            }
-            "k_pressure" => self.k_pressure = value,
-            "least_area" => self.least_area = value,
-            "pbd_stretch" => self.stiffness.0 = value,
-            "pbd_bend" => self.stiffness.1 = value,
-            "substeps" => self.substeps = value as usize,
-            "compression" => self.compression = value,
-            "k_s" => {
-                self.k_s = value;
-                self.compliance.0 = None;
-            }
-            _ => {
-                self.k_b = value;
-                self.compliance.1 = None;
-            }
+        match params::assign(self.own_params(), self, name, value)? {
+            Some(_) => Ok(()),
+            None => Err(params::unknown(self.method_name(), name, self.param_values().iter().map(|p| p.spec.name))),
         }
-        Ok(())
+    }
+
+    /// A new stretch stiffness: the compliance follows on the next step.
+    fn set_k_s(&mut self, k_s: f64) {
+        self.k_s = k_s;
+        self.compliance.0 = None;
+    }
+
+    /// A new bending stiffness: the compliance follows on the next step.
+    fn set_k_b(&mut self, k_b: f64) {
+        self.k_b = k_b;
+        self.compliance.1 = None;
     }
 }
