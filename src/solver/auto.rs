@@ -436,7 +436,13 @@ mod tests {
         let strict = choose(&setup, 0.05).unwrap();
         let exact = choose(&setup, 1e-9).unwrap();
         assert!(loose.winner().estimate <= 0.5 && strict.winner().estimate <= 0.05);
-        assert!(strict.winner().estimate < loose.winner().estimate, "{:?} vs {:?}", strict.winner(), loose.winner());
+        // Costs are measured, so the order of near-equal candidates varies from run to run: when the
+        // cheapest one meets both targets, both choose it.
+        assert!(strict.winner().estimate <= loose.winner().estimate, "{:?} vs {:?}", strict.winner(), loose.winner());
+        assert!(
+            loose.candidates[..loose.chosen].iter().all(|c| c.estimate > 0.5),
+            "the loose choice is the cheapest meeting it"
+        );
         // Only the full equations meet a target below any reduced model's error.
         assert_eq!(exact.winner().method, "ds-implicit");
         // Candidates are estimated cheapest first, up to the winner and no further.
