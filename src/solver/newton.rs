@@ -15,7 +15,7 @@
 use glam::DVec3;
 
 use super::ShellModel;
-use super::params::{self, Param, Redo};
+use super::params::{Param, Redo};
 use super::{ParamSpec, SolverError};
 use crate::energy::HessianMode;
 use crate::linalg::SparseCholesky;
@@ -24,31 +24,27 @@ use crate::scene::SolverSettings;
 /// Backward Euler's step, a parameter of the dynamic Newton method.
 pub(crate) const STEP: ParamSpec = ParamSpec::linear("step", "time step", "s", "Backward Euler step.", 1e-6, 1.0);
 
+/// The Newton iteration cap.
+const ITERATIONS: Param<NewtonSettings> = Param::new(
+    ParamSpec {
+        integer: true,
+        ..ParamSpec::linear("iterations", "Newton iterations", "", "Cap on Newton iterations per step.", 1.0, 1000.0)
+    },
+    |n| n.max_iterations as f64,
+    |n, v| n.max_iterations = v as usize,
+    Redo::Nothing,
+);
+
+/// The Newton tolerance.
+const TOLERANCE: Param<NewtonSettings> = Param::new(
+    ParamSpec::linear("tolerance", "Newton tolerance", "", "Relative residual at which Newton stops.", 1e-14, 1.0),
+    |n| n.tolerance,
+    |n, v| n.tolerance = v,
+    Redo::Nothing,
+);
+
 /// The Newton settings' parameters, the same in every Newton method.
-pub(crate) const NEWTON_PARAMS: &[Param<NewtonSettings>] = &[
-    Param::new(
-        ParamSpec {
-            integer: true,
-            ..ParamSpec::linear(
-                "iterations",
-                "Newton iterations",
-                "",
-                "Cap on Newton iterations per step.",
-                1.0,
-                1000.0,
-            )
-        },
-        |n| n.max_iterations as f64,
-        |n, v| n.max_iterations = v as usize,
-        Redo::Nothing,
-    ),
-    Param::new(
-        ParamSpec::linear("tolerance", "Newton tolerance", "", "Relative residual at which Newton stops.", 1e-14, 1.0),
-        |n| n.tolerance,
-        |n, v| n.tolerance = v,
-        Redo::Nothing,
-    ),
-];
+pub(crate) const NEWTON_PARAMS: &[Param<NewtonSettings>] = &[ITERATIONS, TOLERANCE];
 
 /// Iteration cap and relative tolerance.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -62,10 +58,8 @@ pub struct NewtonSettings {
 impl NewtonSettings {
     /// The scene's `solver.iterations` and `solver.tolerance`, checked against [`NEWTON_PARAMS`].
     pub(crate) fn of(scene: &SolverSettings) -> Result<Self, SolverError> {
-        let mut n = Self { max_iterations: 1, tolerance: 1.0 };
-        params::assign(NEWTON_PARAMS, &mut n, "iterations", scene.iterations as f64)?;
-        params::assign(NEWTON_PARAMS, &mut n, "tolerance", scene.tolerance)?;
-        Ok(n)
+        let max_iterations = ITERATIONS.spec.check(scene.iterations as f64)? as usize;
+        Ok(Self { max_iterations, tolerance: TOLERANCE.spec.check(scene.tolerance)? })
     }
 }
 

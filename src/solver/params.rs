@@ -71,8 +71,8 @@ pub enum Redo {
 }
 
 /// One parameter of a method whose state is `T`, declared once: what it is, how to read and write it,
-/// and what a change costs. A method's table is a `&[Param<T>]`; its `params`, `set_param`, the
-/// panel, `--set` and the evaluation's sweeps all read that table.
+/// and what a change costs. A method's table is a `&[Param<T>]`; its `params` and `set_param`, and
+/// through them the panel and the live parameter changes, read that table.
 pub struct Param<T> {
     /// Name, label, unit, help and range.
     pub spec: ParamSpec,

@@ -269,11 +269,11 @@ impl ShellModel {
             None => return Ok(false),
             Some(Redo::Nothing) => {}
             Some(_) => {
-                self.shell.set_stiffness(self.stiffness).map_err(|e| SolverError::BadParam {
-                    name: name.into(),
-                    value,
-                    reason: e.to_string(),
-                })?;
+                if let Err(e) = self.shell.set_stiffness(self.stiffness) {
+                    // The shell kept its stiffnesses: so do the parameters.
+                    self.stiffness = self.shell.stiffness();
+                    return Err(SolverError::BadParam { name: name.into(), value, reason: e.to_string() });
+                }
                 self.k0 = None;
                 self.update_forces();
             }
