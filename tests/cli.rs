@@ -109,7 +109,7 @@ fn bad_input_gives_one_clear_line_and_nonzero_exit() {
         (&["sim", "--scene", "cantilever", "--method", "warp9"], "unknown method `warp9`"),
         (
             &["sim", "--scene", "cantilever", "--set", "material.k_bend=nan"],
-            "`material.k_bend`: must be a finite number",
+            "`material.k_bend`: NaN is not a finite number",
         ),
         (&["sim", "--scene", "cantilever", "--set", "material.k_bent=1"], "unknown field `k_bent`"),
     ];

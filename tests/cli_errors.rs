@@ -43,7 +43,7 @@ fn run(args: &[&str]) -> Output {
 
 #[test]
 fn scene_and_override_errors_name_what_is_wrong() {
-    let cases: [(&[&str], &[&str]); 5] = [
+    let cases: [(&[&str], &[&str]); 6] = [
         (
             &["sim", "-s", "cantilever", "--set", "material.k_bend=abc"],
             &["--set material.k_bend=abc: `material.k_bend`: invalid type: string \"abc\", expected f64"],
@@ -55,7 +55,21 @@ fn scene_and_override_errors_name_what_is_wrong() {
         ),
         (
             &["sim", "-s", "cantilever", "-m", "lma", "--set", "solver.modes=100000"],
-            &["method `lma` cannot run this scene: 100000 modes"],
+            &["`solver.modes`: 100000 is outside the allowed range [1, 256]"],
+        ),
+        (
+            &[
+                "sim",
+                "-s",
+                "cantilever",
+                "-m",
+                "lma",
+                "--set",
+                "solver.modes=100",
+                "--set",
+                "mesh.grid.segments=[4, 1]",
+            ],
+            &["method `lma` cannot run this scene: 100 modes"],
         ),
         (&["sim", "-s", "cantilever", "--set", "mesh.grid.segments=[100000, 100000]"], &["`segments`: too large"]),
     ];

@@ -1,10 +1,12 @@
-//! Every scene check names its key; OBJ meshes in scenes resolve relative paths, keep the file's
+//! Every scene check names its key, and so does every method's check of the scene values it reads;
+//! OBJ meshes in scenes resolve relative paths, keep the file's
 //! vertex order, and report missing or broken files as mesh errors of the scene.
 
 use std::path::{Path, PathBuf};
 
 use shellwarp::mesh::MeshError;
-use shellwarp::scene::{self, Origin, SceneError};
+use shellwarp::scene::{self, Origin, SceneError, Setup};
+use shellwarp::solver::{self, ParamSpec, SolverError, registry};
 
 const BASE: &str = "name = \"t\"\n[mesh.grid]\nsize = [1.0, 0.1]\nsegments = [4, 1]\n[solver]\nmethod = \"rigid\"\n";
 
@@ -54,10 +56,6 @@ fn every_validation_check_names_its_key() {
         ("placement.scale=0".into(), "placement.scale", "must be positive"),
         ("placement.rotate_deg=[0, inf, 0]".into(), "placement.rotate_deg", "finite"),
         ("placement.translate=[nan, 0, 0]".into(), "placement.translate", "finite"),
-        ("material.density=0".into(), "material.density", "must be positive"),
-        ("material.k_area=-1".into(), "material.k_area", "must not be negative"),
-        ("material.k_length=-1".into(), "material.k_length", "must not be negative"),
-        ("material.k_bend=nan".into(), "material.k_bend", "finite"),
         ("anchors=[{ box = { min = [nan, 0, 0], max = [1, 1, 1] } }]".into(), "anchors[0].box.min", "finite"),
         ("anchors=[{ box = { min = [0, 0, 0], max = [1, inf, 1] } }]".into(), "anchors[0].box.max", "finite"),
         ("anchors=[{ box = { min = [1, 0, 0], max = [0, 1, 1] } }]".into(), "anchors[0].box", "min must not exceed"),
@@ -98,26 +96,7 @@ fn every_validation_check_names_its_key() {
             "colliders[0].translate",
             "finite",
         ),
-        ("material.k_s=-1".into(), "material.k_s", "must not be negative"),
-        ("material.k_b=nan".into(), "material.k_b", "finite"),
-        ("material.c_b=-2".into(), "material.c_b", "must not be negative"),
-        ("material.k_d=inf".into(), "material.k_d", "finite"),
-        ("material.mu_s=-0.1".into(), "material.mu_s", "must not be negative"),
-        ("material.mu_k=nan".into(), "material.mu_k", "finite"),
-        ("solver.margin=0".into(), "solver.margin", "must be positive"),
         ("solver.accuracy=0".into(), "solver.accuracy", "relative error in (0, 1]"),
-        ("solver.constraint_damping=0".into(), "solver.constraint_damping", "must be positive"),
-        ("solver.iterations=0".into(), "solver.iterations", "at least 1"),
-        ("solver.substeps=0".into(), "solver.substeps", "at least 1"),
-        ("solver.sweeps=0".into(), "solver.sweeps", "at least 1"),
-        ("solver.thickness=-0.01".into(), "solver.thickness", "must be positive"),
-        ("solver.least_area=1".into(), "solver.least_area", "fraction of the rest area in [0, 1)"),
-        ("solver.least_area=-0.1".into(), "solver.least_area", "fraction of the rest area in [0, 1)"),
-        ("material.compliance_stretch=-1e-3".into(), "material.compliance_stretch", "must not be negative"),
-        ("material.compliance_bend=-1".into(), "material.compliance_bend", "must not be negative"),
-        ("material.pbd_stretch=1.5".into(), "material.pbd_stretch", "fraction in [0, 1]"),
-        ("material.pbd_bend=-0.1".into(), "material.pbd_bend", "fraction in [0, 1]"),
-        ("material.k_pressure=0".into(), "material.k_pressure", "must be positive"),
         (
             "colliders=[{ sphere = { center = [0, 0, 0], radius = 0.1, mass = 0.0 } }]".into(),
             "colliders[0].mass",
@@ -128,9 +107,6 @@ fn every_validation_check_names_its_key() {
             "colliders[0].half_extents",
             "must be positive",
         ),
-        ("wind.velocity=[nan, 0, 0]".into(), "wind.velocity", "finite"),
-        ("wind.drag=-1".into(), "wind.drag", "must not be negative"),
-        ("wind.gust=-0.5".into(), "wind.gust", "must not be negative"),
         ("placement.copies=0".into(), "placement.copies", "at least 1"),
         ("placement.copy_offset=[0, nan, 0]".into(), "placement.copy_offset", "finite"),
         (
@@ -170,12 +146,6 @@ fn every_validation_check_names_its_key() {
         (part("accuracy = nan"), "parts[0].accuracy", "relative error in (0, 1]"),
         (part("accuracy = -inf"), "parts[0].accuracy", "relative error in (0, 1]"),
         ("solver.method=\"\"".into(), "solver.method", "required unless solver.accuracy"),
-        ("solver.step=-0.1".into(), "solver.step", "must be positive"),
-        ("solver.modes=0".into(), "solver.modes", "at least 1"),
-        ("solver.rayleigh_alpha=-1".into(), "solver.rayleigh_alpha", "must not be negative"),
-        ("solver.rayleigh_beta=nan".into(), "solver.rayleigh_beta", "finite"),
-        ("solver.iterations=0".into(), "solver.iterations", "at least 1"),
-        ("solver.tolerance=0".into(), "solver.tolerance", "must be positive"),
         ("camera.eye=[0, nan, 3]".into(), "camera.eye", "finite"),
         ("camera.target=[inf, 0, 0]".into(), "camera.target", "finite"),
         ("camera.fov_deg=0.5".into(), "camera.fov_deg", "[1, 170]"),
@@ -188,6 +158,109 @@ fn every_validation_check_names_its_key() {
                 assert!(r.contains(reason), "--set {set}: `{k}`: {r} (expected {reason:?})");
             }
             other => panic!("--set {set}: expected an invalid `{key}`, got {other:?}"),
+        }
+    }
+}
+
+/// A scene for `method` on a small anchored sheet, with the `--set` arguments `set`.
+fn method_scene(method: &str, set: &[String]) -> Result<Setup, SceneError> {
+    let text = format!(
+        "name = \"t\"\n[mesh.grid]\nsize = [1.0, 0.2]\nsegments = [6, 2]\n[[anchors]]\n\
+         box = {{ min = [-0.6, -1, -1], max = [-0.4, 1, 1] }}\n[solver]\nmethod = \"{method}\"\nmodes = 4\n"
+    );
+    let scene = scene::parse(&text, &origin(), set)?;
+    Setup::new(scene, origin())
+}
+
+/// `--set` giving the scene key of `spec` the value `value` (a whole vector for `gravity[1]`).
+fn set_key(spec: &ParamSpec, value: f64) -> String {
+    let number = match value {
+        v if v.is_nan() => "nan".to_string(),
+        v if spec.integer => format!("{}", v as i64),
+        v => format!("{v:?}"),
+    };
+    match spec.key.split_once('[') {
+        Some((vector, index)) => {
+            let index: usize = index.trim_end_matches(']').parse().unwrap();
+            let mut v = ["0.0".to_string(), "0.0".to_string(), "0.0".to_string()];
+            v[index] = number;
+            format!("{vector}=[{}]", v.join(", "))
+        }
+        None => format!("{}={number}", spec.key),
+    }
+}
+
+/// Every method checks each scene value it reads against its parameter's range when it is built,
+/// naming the scene key as the scene's own checks do: a value past either end of the range, or not
+/// a number, is refused (a key that is not the scene's would fail to parse here).
+#[test]
+fn every_method_checks_the_scene_values_it_reads_naming_their_keys() {
+    for method in registry::METHODS.iter().chain(registry::TEST_METHODS) {
+        let setup = method_scene(method.name, &[]).unwrap();
+        let solver = method.construct(&setup).unwrap_or_else(|e| panic!("{}: {e}", method.name));
+        let keyed: Vec<ParamSpec> = solver.params().into_iter().map(|p| p.spec).filter(|s| !s.key.is_empty()).collect();
+        assert!(!keyed.is_empty(), "{}: no parameter read from the scene", method.name);
+        for spec in keyed {
+            let below = if spec.min > 0.0 { spec.min / 10.0 } else { spec.min - 1.0 };
+            let mut bad = vec![spec.max * 10.0 + 1.0, below];
+            // (The scene itself refuses a vector with a non-finite component, `gravity` for one.)
+            if !spec.integer && !spec.key.contains('[') {
+                bad.push(f64::NAN);
+            }
+            for value in bad {
+                let set = set_key(&spec, value);
+                // A balloon's pressure needs a closed mesh.
+                let closed = "mesh={ icosphere = { radius = 0.5, frequency = 1 } }".to_string();
+                let sets =
+                    if spec.key == "material.k_pressure" { vec![closed, set.clone()] } else { vec![set.clone()] };
+                let setup =
+                    method_scene(method.name, &sets).unwrap_or_else(|e| panic!("{}: --set {set}: {e}", method.name));
+                match method.construct(&setup) {
+                    Err(SolverError::SceneValue { file, key, reason }) => {
+                        assert_eq!(
+                            (file.as_str(), key.as_str()),
+                            ("test.toml", spec.key),
+                            "{}: --set {set}",
+                            method.name
+                        );
+                        let why = if value.is_nan() { "not a finite number" } else { "outside the allowed range" };
+                        assert!(reason.contains(why), "{}: --set {set}: {reason}", method.name);
+                    }
+                    Err(e) => panic!("{}: --set {set}: expected `{}` refused, got {e}", method.name, spec.key),
+                    Ok(_) => panic!("{}: --set {set}: accepted", method.name),
+                }
+            }
+        }
+    }
+}
+
+/// A part's own setting that its method refuses is named as the part's key.
+#[test]
+fn a_part_setting_out_of_range_names_the_part() {
+    let part = "parts=[{ select = { box = { min = [-1, -1, -1], max = [1, 1, 1] } }, method = \"mwts\", modes = 0 }]";
+    match solver::build(&method_scene("mwts", &[part.to_string()]).unwrap()) {
+        Err(SolverError::SceneValue { key, reason, .. }) => {
+            assert_eq!(key, "parts[0].modes", "{reason}");
+        }
+        other => panic!("expected parts[0].modes refused, got {:?}", other.err()),
+    }
+    let setup = method_scene("mwts", &["solver.modes=0".to_string()]).unwrap();
+    assert!(matches!(solver::build(&setup), Err(SolverError::SceneValue { key, .. }) if key == "solver.modes"));
+}
+
+/// A whole number past TOML's (`--set` cannot give one, a file can) is refused by its key.
+#[test]
+fn whole_numbers_past_64_bits_signed_name_their_key() {
+    for (from, to, key) in [
+        ("method = \"rigid\"", "method = \"rigid\"\nsweeps = 18446744073709551615", "solver.sweeps"),
+        ("segments = [4, 1]", "segments = [4, 9223372036854775808]", "mesh.grid.segments[1]"),
+    ] {
+        match scene::parse(&BASE.replace(from, to), &origin(), &[]) {
+            Err(SceneError::Invalid { key: k, reason, .. }) => {
+                assert_eq!(k, key, "{reason}");
+                assert!(reason.contains("larger than the largest whole number"), "{reason}");
+            }
+            other => panic!("{to}: expected `{key}` refused, got {other:?}"),
         }
     }
 }

@@ -4,7 +4,6 @@
 use std::process::ExitCode;
 
 use serde::Serialize;
-use shellwarp::energy::ShellStiffness;
 use shellwarp::solver::modal::compute::{EIGEN_BLOCK, MAX_RESIDUAL, ModalProblem, PrecomputeTimings, analyse};
 
 use super::SceneArgs;
@@ -48,16 +47,8 @@ struct Report {
 /// Compute (never from the cache: this command measures) and print.
 pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
     let setup = args.scene.load()?;
-    let m = &setup.scene.material;
     let masses = setup.masses();
-    let problem = ModalProblem {
-        mesh: &setup.mesh,
-        anchors: &setup.anchors,
-        masses: &masses,
-        stiffness: ShellStiffness::from(m),
-        modes: args.modes.map_or(setup.scene.solver.modes, |m| m as usize),
-        keep_rigid: false,
-    };
+    let problem = ModalProblem::of_scene(&setup, &masses, args.modes.map_or(setup.scene.solver.modes, |m| m as usize))?;
     let bar = indicatif::ProgressBar::new(100).with_message("modal analysis");
     if args.json {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());

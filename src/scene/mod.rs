@@ -130,7 +130,6 @@ mod tests {
         let cases = [
             ("size = [1.0, 0.1]", "size = [1.0, -0.1]", "mesh.size"),
             ("name = \"t\"", "name = \"t\"\ngravity = [0.0, nan, 0.0]", "gravity"),
-            ("[solver]", "[material]\ndensity = 0.0\n[solver]", "material.density"),
             ("[solver]", "[[anchors]]\nindices = []\n[solver]", "anchors[0].indices"),
             ("[solver]", "[[anchors]]\n[solver]", "anchors[0]"),
             ("[solver]", "[[anchors]]\nbox = { min = [1, 1, 1], max = [0, 0, 0] }\n[solver]", "anchors[0].box"),
@@ -144,8 +143,7 @@ mod tests {
                 "[[colliders]]\nplane = { point = [0, 0, 0], normal = [0, 0, 0] }\n[solver]",
                 "colliders[0].normal",
             ),
-            ("method = \"rigid\"", "method = \"rigid\"\nstep = -0.1", "solver.step"),
-            ("method = \"rigid\"", "method = \"rigid\"\nmodes = 0", "solver.modes"),
+            ("method = \"rigid\"", "method = \"rigid\"\naccuracy = 0.0", "solver.accuracy"),
         ];
         for (from, to, key) in cases {
             let e = parse_err(&MINIMAL.replace(from, to));
@@ -160,8 +158,8 @@ mod tests {
         assert_eq!(s.solver.modes, 4);
         let e = parse(MINIMAL, &origin(), &["material.k_bnd=0.5".into()]).unwrap_err().to_string();
         assert!(e.contains("k_bnd"), "{e}");
-        let e = parse(MINIMAL, &origin(), &["material.k_bend=-2".into()]).unwrap_err().to_string();
-        assert!(e.contains("material.k_bend"), "{e}");
+        let e = parse(MINIMAL, &origin(), &["placement.scale=-2".into()]).unwrap_err().to_string();
+        assert!(e.contains("placement.scale"), "{e}");
     }
 
     #[test]

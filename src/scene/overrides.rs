@@ -1,6 +1,30 @@
-//! `--set key=value` overrides on the TOML tree, and turning toml errors into one-line messages.
+//! Dotted keys on the TOML tree: `--set key=value` overrides, reading a number back by its key, and
+//! turning toml errors into one-line messages.
 
-use super::SceneError;
+use super::{Scene, SceneError};
+
+impl Scene {
+    /// The number at the dotted `key` (`material.k_bend`, `gravity[1]`), or `None` where the scene
+    /// leaves it out (an absent optional value) or holds no number there.
+    pub fn number(&self, key: &str) -> Option<f64> {
+        let tree = toml::Value::try_from(self).ok()?;
+        let mut node = &tree;
+        for part in key.split('.') {
+            match part.split_once('[') {
+                Some((name, index)) => {
+                    let index: usize = index.strip_suffix(']')?.parse().ok()?;
+                    node = node.get(name)?.get(index)?;
+                }
+                None => node = node.get(part)?,
+            }
+        }
+        match node {
+            toml::Value::Integer(i) => Some(*i as f64),
+            toml::Value::Float(x) => Some(*x),
+            _ => None,
+        }
+    }
+}
 
 /// Turn a toml error into `file:line:column: message` (line 0 when the error has no position).
 pub(crate) fn parse_error(file: &str, text: &str, e: &toml::de::Error) -> SceneError {
@@ -94,6 +118,19 @@ mod tests {
         assert!(apply(&mut t, "a.b=1").is_err(), "a is a number, not a table");
         assert!(apply(&mut t, "novalue").is_err());
         assert!(apply(&mut t, ".x=1").is_err());
+    }
+
+    #[test]
+    fn numbers_are_read_back_by_their_dotted_keys() {
+        let text = "name = \"t\"\ngravity = [0, -2.5, 0]\n[mesh.grid]\nsize = [1.0, 0.1]\nsegments = [4, 1]\n\
+                    [material]\nk_bend = 3.0\n[solver]\nmethod = \"rigid\"\nmodes = 5\n";
+        let scene: Scene = toml::from_str(text).unwrap();
+        assert_eq!(scene.number("material.k_bend"), Some(3.0));
+        assert_eq!(scene.number("solver.modes"), Some(5.0), "integers too");
+        assert_eq!(scene.number("gravity[1]"), Some(-2.5));
+        assert_eq!(scene.number("solver.step"), None, "left out: the method's default");
+        assert_eq!(scene.number("solver.method"), None, "not a number");
+        assert_eq!((scene.number("gravity[3]"), scene.number("material.nothing")), (None, None));
     }
 
     #[test]

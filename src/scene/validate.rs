@@ -1,4 +1,8 @@
-//! Value checks that serde's typing cannot express. Each failure names its dotted key.
+//! Value checks that serde's typing cannot express, for what no method owns: the mesh, placement,
+//! selections, tracks and skeleton, colliders, the accuracy targets and the camera. Each failure
+//! names its dotted key. The material's and the solver's numbers are the methods' parameters: each
+//! method checks the values it reads against its own parameter table when it is built
+//! (`solver::params::check_scene`), with the same kind of message.
 
 use super::schema::{Collider, MeshSource, Scene};
 use super::script::{Key, Skeleton, Track};
@@ -100,9 +104,36 @@ fn mesh(m: &MeshSource) -> Result<(), Invalid> {
     }
 }
 
+/// Every value fits TOML's types (its whole numbers are 64-bit signed), so that every key can be read
+/// back ([`Scene::number`]): the first whole number that does not, by its key.
+fn representable(scene: &Scene) -> Result<(), Invalid> {
+    if toml::Value::try_from(scene).is_ok() {
+        return Ok(());
+    }
+    let unwritable = || (String::new(), "the scene cannot be written back as TOML".to_string());
+    let tree = serde_json::to_value(scene).map_err(|_| unwritable())?;
+    Err(too_large(&tree, String::new()).unwrap_or_else(unwritable))
+}
+
+/// The first whole number past `i64::MAX` in `value` (at `key`), with the reason.
+fn too_large(value: &serde_json::Value, key: String) -> Option<Invalid> {
+    use serde_json::Value;
+    match value {
+        Value::Number(n) if n.is_u64() && n.as_i64().is_none() => {
+            Some((key, format!("{n} is larger than the largest whole number, 2^63 − 1")))
+        }
+        Value::Array(items) => items.iter().enumerate().find_map(|(i, v)| too_large(v, format!("{key}[{i}]"))),
+        Value::Object(fields) => {
+            fields.iter().find_map(|(k, v)| too_large(v, if key.is_empty() { k.clone() } else { format!("{key}.{k}") }))
+        }
+        _ => None,
+    }
+}
+
 impl Scene {
     /// Check every value; the error names the first offending key.
     pub(crate) fn validate(&self) -> Result<(), Invalid> {
+        representable(self)?;
         mesh(&self.mesh)?;
         positive("placement.scale", self.placement.scale)?;
         vec3("placement.rotate_deg", self.placement.rotate_deg)?;
@@ -116,37 +147,9 @@ impl Scene {
             if p.method.as_deref() == Some("") {
                 return Err((key("method"), "is empty".into()));
             }
-            if let Some(m) = p.modes {
-                at_least(&key("modes"), m, 1)?;
-            }
-            if let Some(h) = p.step {
-                positive(&key("step"), h)?;
-            }
-            for (name, v) in [("rayleigh_alpha", p.rayleigh_alpha), ("rayleigh_beta", p.rayleigh_beta)] {
-                v.map(|v| non_negative(&key(name), v)).transpose()?;
-            }
-            if let Some(d) = p.constraint_damping {
-                positive(&key("constraint_damping"), d)?;
-            }
             if let Some(a) = p.accuracy {
                 accuracy(&key("accuracy"), a)?;
             }
-        }
-        let m = &self.material;
-        positive("material.density", m.density)?;
-        let coefficients = [
-            ("k_area", m.k_area),
-            ("k_length", m.k_length),
-            ("k_bend", m.k_bend),
-            ("k_s", m.k_s),
-            ("k_b", m.k_b),
-            ("c_b", m.c_b),
-            ("k_d", m.k_d),
-            ("mu_s", m.mu_s),
-            ("mu_k", m.mu_k),
-        ];
-        for (key, v) in coefficients {
-            non_negative(&format!("material.{key}"), v)?;
         }
         for (i, a) in self.anchors.iter().enumerate() {
             selection(&format!("anchors[{i}]"), a)?;
@@ -199,59 +202,6 @@ impl Scene {
             vec3(&key("motion.spin"), motion.spin)?;
         }
         let s = &self.solver;
-        if let Some(h) = s.substep {
-            positive("solver.substep", h)?;
-        }
-        if let Some(h) = s.step {
-            positive("solver.step", h)?;
-        }
-        at_least("solver.modes", s.modes, 1)?;
-        non_negative("solver.rayleigh_alpha", s.rayleigh_alpha)?;
-        non_negative("solver.rayleigh_beta", s.rayleigh_beta)?;
-        at_least("solver.iterations", s.iterations, 1)?;
-        at_least("solver.sweeps", s.sweeps, 1)?;
-        positive("solver.tolerance", s.tolerance)?;
-        if let Some(m) = s.margin {
-            positive("solver.margin", m)?;
-        }
-        if let Some(d) = s.constraint_damping {
-            positive("solver.constraint_damping", d)?;
-        }
-        at_least("solver.substeps", s.substeps, 1)?;
-        if let Some(t) = s.thickness {
-            positive("solver.thickness", t)?;
-        }
-        if let Some(a) = s.least_area {
-            finite("solver.least_area", a)?;
-            if !(0.0..1.0).contains(&a) {
-                return Err(("solver.least_area".into(), format!("is a fraction of the rest area in [0, 1), got {a}")));
-            }
-        }
-        let m = &self.material;
-        for (key, k) in [
-            ("material.pbd_stretch", m.pbd_stretch),
-            ("material.pbd_bend", m.pbd_bend),
-            ("material.compression", m.compression),
-        ] {
-            finite(key, k)?;
-            if !(0.0..=1.0).contains(&k) {
-                return Err((key.into(), format!("is a fraction in [0, 1], got {k}")));
-            }
-        }
-        for (key, c) in
-            [("material.compliance_stretch", m.compliance_stretch), ("material.compliance_bend", m.compliance_bend)]
-        {
-            c.map(|c| non_negative(key, c)).transpose()?;
-        }
-        if let Some(k) = m.k_pressure {
-            positive("material.k_pressure", k)?;
-        }
-        let w = &self.wind;
-        vec3("wind.velocity", w.velocity)?;
-        non_negative("wind.drag", w.drag)?;
-        non_negative("wind.air_density", w.air_density)?;
-        non_negative("wind.gust", w.gust)?;
-        non_negative("wind.gust_frequency", w.gust_frequency)?;
         match s.accuracy {
             Some(a) => accuracy("solver.accuracy", a)?,
             None if s.method.is_empty() => {

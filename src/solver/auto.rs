@@ -465,12 +465,12 @@ mod tests {
                 .unwrap();
         assert_eq!(choice.winner().method, "ds-implicit");
         let failed = choice.candidates.last().unwrap();
-        assert!(failed.failure.as_deref().is_some_and(|f| f.contains("100000 modes")), "{failed:?}");
+        assert!(failed.failure.as_deref().is_some_and(|f| f.contains("`solver.modes`: 100000")), "{failed:?}");
         assert!(choice.explain().iter().any(|l| l.starts_with("passed over, could not be run: mwts, 100000 modes")));
         // Nothing that can run: its failure is the error.
         assert!(matches!(
             choose_among(&setup, 0.5, vec![too_many], &none, &|_| {}),
-            Err(SolverError::Unsuitable { .. })
+            Err(SolverError::SceneValue { .. })
         ));
     }
 

@@ -45,6 +45,7 @@ const FRAME: ParamSpec = ParamSpec {
     min: 1e-6,
     max: 1.0,
     integer: false,
+    key: "solver.step",
 };
 
 const SUBSTEP: ParamSpec = ParamSpec {
@@ -55,6 +56,7 @@ const SUBSTEP: ParamSpec = ParamSpec {
     min: 0.0,
     max: 1.0,
     integer: false,
+    key: "solver.substep",
 };
 
 /// Its own parameters, after the shell's and the wind's.
@@ -85,10 +87,11 @@ impl DsExplicit {
     /// Build from a scene: `solver.step` sets the frame (default 1/30 s), `solver.substep` the substep
     /// (automatic if absent).
     pub fn new(setup: &Setup) -> Result<Self, SolverError> {
+        params::check_scene(params::specs(PARAMS), setup)?;
         let mut model = ShellModel::new(setup)?;
         let s = &setup.scene.solver;
-        let frame = FRAME.check(s.step.unwrap_or(1.0 / 30.0))?;
-        let requested = s.substep.map(|h| SUBSTEP.check(h)).transpose()?.filter(|&h| h > 0.0);
+        let frame = s.step.unwrap_or(1.0 / 30.0);
+        let requested = s.substep.filter(|&h| h > 0.0);
         let limit = stability_limit(&mut model);
         let x = model.rest().to_vec();
         let n = x.len();

@@ -38,10 +38,10 @@ pub struct DsImplicit {
 impl DsImplicit {
     /// Build from a scene (`solver.step`, default 1/30 s; `solver.iterations`; `solver.tolerance`).
     pub fn new(setup: &Setup) -> Result<Self, SolverError> {
+        params::check_scene(params::specs(PARAMS), setup)?;
         let model = ShellModel::new(setup)?;
-        let s = &setup.scene.solver;
-        let h = STEP.check(s.step.unwrap_or(1.0 / 30.0))?;
-        let newton = NewtonSettings::of(s)?;
+        let h = setup.scene.solver.step.unwrap_or(1.0 / 30.0);
+        let newton = NewtonSettings::of(setup)?;
         let x = model.rest().to_vec();
         let n = x.len();
         Ok(Self { model, v: vec![DVec3::ZERO; n], x, h, newton, drags: DragSet::new(n, false), steps: 0, time: 0.0 })

@@ -74,8 +74,7 @@ impl DsStatic {
                 reason: "no anchored vertices: a free shell under load has no static equilibrium".into(),
             });
         }
-        let s = &setup.scene.solver;
-        let newton = NewtonSettings::of(s)?;
+        let newton = NewtonSettings::of(setup)?;
         let x = model.rest().to_vec();
         let n = x.len();
         Ok(Self {

@@ -58,4 +58,15 @@ pub enum SolverError {
     /// A numerical routine failed (factorisation, eigen solve...).
     #[error("numerical failure: {0}")]
     Numerical(String),
+    /// A scene value the method reads is outside its parameter's range (worded as the scene's own
+    /// checks are: file, dotted key, reason).
+    #[error("{file}: `{key}`: {reason}")]
+    SceneValue {
+        /// The scene's file.
+        file: String,
+        /// Dotted key path.
+        key: String,
+        /// Why it was refused.
+        reason: String,
+    },
 }

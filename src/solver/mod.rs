@@ -10,16 +10,21 @@
 //!
 //! 1. A file (or folder) under `solver/` with the solver's state and `impl Solver`: `step` advances one
 //!    fixed step and returns [`StepStats`] (call [`check_finite`] on the new state, so divergence is
-//!    reported, never propagated); `reset` returns to rest keeping parameters and drags; `params` and
-//!    `set_param` publish its [`ParamSpec`]s (checked with [`ParamSpec::check`]); `drags_mut` gives
-//!    the [`DragSet`] it honours (position drags at least; orientation drags where it has rotations).
-//! 2. A `pub const METHOD: Method` in that file: its name (for scene files, `--method` and the panel),
-//!    a one-line summary, the constructor from a realised [`Setup`](crate::scene::Setup) (read the
-//!    scene's material and `[solver]` table; refuse what it cannot simulate with
-//!    [`SolverError::Unsuitable`]), and its memory [`Footprint`].
-//! 3. One line in [`registry::METHODS`]. The panel's method list, `sim`, `render`, the evaluation's
+//!    reported, never propagated); `reset` returns to rest keeping parameters and drags; `drags_mut`
+//!    gives the [`DragSet`] it honours (position drags at least; orientation drags where it has
+//!    rotations).
+//! 2. Its parameter table, one [`params::Param`] per parameter: the spec (name, label, unit, help,
+//!    range, and with [`ParamSpec::in_scene`] the scene key it is read from), getter, setter and what a
+//!    change makes it redo. `params` and `set_param` are [`params::values`] and [`params::set`] over
+//!    it; the panel, `--set` and the live changes read nothing else. Shared quantities take the specs
+//!    of [`params::shared`].
+//! 3. A `pub const METHOD: Method` in that file: its name (for scene files, `--method` and the panel),
+//!    a one-line summary, the constructor from a realised [`Setup`](crate::scene::Setup) (first
+//!    [`params::check_scene`] over its table, then read the scene's material and `[solver]` table;
+//!    refuse what it cannot simulate with [`SolverError::Unsuitable`]), and its memory [`Footprint`].
+//! 4. One line in [`registry::METHODS`]. The panel's method list, `sim`, `render`, the evaluation's
 //!    method sweeps and the fuzzer pick it up from there.
-//! 4. Tests beside it that would fail if it were wrong (a known equilibrium, a conserved quantity, or
+//! 5. Tests beside it that would fail if it were wrong (a known equilibrium, a conserved quantity, or
 //!    agreement with another method), and the method added to the evaluation's families where it
 //!    competes (`eval/experiments`).
 

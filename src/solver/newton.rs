@@ -15,20 +15,22 @@
 use glam::DVec3;
 
 use super::ShellModel;
-use super::params::{Param, Redo};
+use super::params::{self, Param, Redo};
 use super::{ParamSpec, SolverError};
 use crate::energy::HessianMode;
 use crate::linalg::SparseCholesky;
-use crate::scene::SolverSettings;
+use crate::scene::Setup;
 
 /// Backward Euler's step, a parameter of the dynamic Newton method.
-pub(crate) const STEP: ParamSpec = ParamSpec::linear("step", "time step", "s", "Backward Euler step.", 1e-6, 1.0);
+pub(crate) const STEP: ParamSpec =
+    ParamSpec::linear("step", "time step", "s", "Backward Euler step.", 1e-6, 1.0).in_scene("solver.step");
 
 /// The Newton iteration cap.
 const ITERATIONS: Param<NewtonSettings> = Param::new(
     ParamSpec {
         integer: true,
         ..ParamSpec::linear("iterations", "Newton iterations", "", "Cap on Newton iterations per step.", 1.0, 1000.0)
+            .in_scene("solver.iterations")
     },
     |n| n.max_iterations as f64,
     |n, v| n.max_iterations = v as usize,
@@ -37,7 +39,8 @@ const ITERATIONS: Param<NewtonSettings> = Param::new(
 
 /// The Newton tolerance.
 const TOLERANCE: Param<NewtonSettings> = Param::new(
-    ParamSpec::linear("tolerance", "Newton tolerance", "", "Relative residual at which Newton stops.", 1e-14, 1.0),
+    ParamSpec::linear("tolerance", "Newton tolerance", "", "Relative residual at which Newton stops.", 1e-14, 1.0)
+        .in_scene("solver.tolerance"),
     |n| n.tolerance,
     |n, v| n.tolerance = v,
     Redo::Nothing,
@@ -57,9 +60,10 @@ pub struct NewtonSettings {
 
 impl NewtonSettings {
     /// The scene's `solver.iterations` and `solver.tolerance`, checked against [`NEWTON_PARAMS`].
-    pub(crate) fn of(scene: &SolverSettings) -> Result<Self, SolverError> {
-        let max_iterations = ITERATIONS.spec.check(scene.iterations as f64)? as usize;
-        Ok(Self { max_iterations, tolerance: TOLERANCE.spec.check(scene.tolerance)? })
+    pub(crate) fn of(setup: &Setup) -> Result<Self, SolverError> {
+        params::check_scene(params::specs(NEWTON_PARAMS), setup)?;
+        let s = &setup.scene.solver;
+        Ok(Self { max_iterations: s.iterations, tolerance: s.tolerance })
     }
 }
 

@@ -1,6 +1,13 @@
 //! Self-describing solver parameters: each solver publishes these and the UI/CLI are generated from them.
+//!
+//! A method declares each parameter once, as a [`Param`] entry of its table: the spec (name, label,
+//! unit, help, range and the scene key it is read from), a getter, a setter and what a change makes
+//! the method redo. The same spec checks the scene's value when the method is built
+//! ([`check_scene`]) and every later change (`set_param`, the panel, `--set`): the scene's own checks
+//! stop at what no method owns (meshes, selections, colliders, tracks, the camera).
 
 use super::{Solver, SolverError};
+use crate::scene::Setup;
 
 /// Description of one tunable parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -19,6 +26,8 @@ pub struct ParamSpec {
     pub max: f64,
     /// Whether only whole numbers are allowed (mode counts, iterations).
     pub integer: bool,
+    /// The dotted scene key the method reads it from (`material.k_bend`, `gravity[1]`), or `""`.
+    pub key: &'static str,
 }
 
 impl ParamSpec {
@@ -31,23 +40,52 @@ impl ParamSpec {
         min: f64,
         max: f64,
     ) -> Self {
-        Self { name, label, unit, help, min, max, integer: false }
+        Self { name, label, unit, help, min, max, integer: false, key: "" }
+    }
+
+    /// The same parameter, read from the scene at the dotted `key`.
+    pub const fn in_scene(self, key: &'static str) -> Self {
+        Self { key, ..self }
+    }
+
+    /// Why `value` is refused (not finite, outside `[min, max]`, not whole where `integer`), if it is.
+    fn refusal(&self, value: f64) -> Option<String> {
+        if !value.is_finite() {
+            Some("not a finite number".into())
+        } else if value < self.min || value > self.max {
+            Some(format!("outside the allowed range [{}, {}] {}", self.min, self.max, self.unit).trim_end().to_string())
+        } else if self.integer && value.fract() != 0.0 {
+            Some("not a whole number".into())
+        } else {
+            None
+        }
     }
 
     /// Check a candidate value: finite, within `[min, max]`, whole if `integer`.
     pub fn check(&self, value: f64) -> Result<f64, SolverError> {
-        let bad = |reason: String| SolverError::BadParam { name: self.name.to_string(), value, reason };
-        if !value.is_finite() {
-            return Err(bad("not a finite number".into()));
+        match self.refusal(value) {
+            Some(reason) => Err(SolverError::BadParam { name: self.name.to_string(), value, reason }),
+            None => Ok(value),
         }
-        if value < self.min || value > self.max {
-            return Err(bad(format!("outside the allowed range [{}, {}] {}", self.min, self.max, self.unit)));
-        }
-        if self.integer && value.fract() != 0.0 {
-            return Err(bad("must be a whole number".into()));
-        }
-        Ok(value)
     }
+}
+
+/// Check the scene's value of every spec that has a scene key (a key the scene leaves out takes the
+/// method's default); the error names the key, as the scene's own checks do.
+pub fn check_scene<'a>(specs: impl IntoIterator<Item = &'a ParamSpec>, setup: &Setup) -> Result<(), SolverError> {
+    for spec in specs.into_iter().filter(|s| !s.key.is_empty()) {
+        let Some(value) = setup.scene.number(spec.key) else { continue };
+        if let Some(reason) = spec.refusal(value) {
+            let (file, key) = (setup.origin.label.clone(), spec.key.to_string());
+            return Err(SolverError::SceneValue { file, key, reason: format!("{value} is {reason}") });
+        }
+    }
+    Ok(())
+}
+
+/// The specs of a table, for [`check_scene`].
+pub fn specs<T>(table: &[Param<T>]) -> impl Iterator<Item = &ParamSpec> {
+    table.iter().map(|p| &p.spec)
 }
 
 /// A parameter with its current value.
@@ -142,7 +180,8 @@ pub mod shared {
         "Stiffness of the triangle-area (stretch) term.",
         0.0,
         1e12,
-    );
+    )
+    .in_scene("material.k_area");
     /// Stiffness of the shell's edge-length (shear) term.
     pub const K_LENGTH: ParamSpec = ParamSpec::linear(
         "k_length",
@@ -151,7 +190,8 @@ pub mod shared {
         "Stiffness of the edge-length (shear) term.",
         0.0,
         1e12,
-    );
+    )
+    .in_scene("material.k_length");
     /// Stiffness of the shell's hinge (bending) term; not zero, so that a modal analysis stays regular.
     pub const K_BEND: ParamSpec = ParamSpec::linear(
         "k_bend",
@@ -160,10 +200,12 @@ pub mod shared {
         "Stiffness of the hinge (flexural) term.",
         1e-9,
         1e12,
-    );
+    )
+    .in_scene("material.k_bend");
     /// Mass per unit area, lumped to the vertices.
     pub const DENSITY: ParamSpec =
-        ParamSpec::linear("density", "density", "kg/m²", "Surface density, lumped to the vertices.", 1e-6, 1e4);
+        ParamSpec::linear("density", "density", "kg/m²", "Surface density, lumped to the vertices.", 1e-6, 1e4)
+            .in_scene("material.density");
     /// The vertical component of gravity.
     pub const GRAVITY_Y: ParamSpec = ParamSpec::linear(
         "gravity_y",
@@ -172,21 +214,32 @@ pub mod shared {
         "Vertical gravity component (negative is down; x and z come from the scene).",
         -1e4,
         1e4,
-    );
+    )
+    .in_scene("gravity[1]");
     /// Rayleigh damping's mass-proportional coefficient.
     pub const RAYLEIGH_ALPHA: ParamSpec =
-        ParamSpec::linear("rayleigh_alpha", "mass damping α", "1/s", "Rayleigh damping C = αM + βK₀.", 0.0, 1e4);
+        ParamSpec::linear("rayleigh_alpha", "mass damping α", "1/s", "Rayleigh damping C = αM + βK₀.", 0.0, 1e4)
+            .in_scene("solver.rayleigh_alpha");
     /// Rayleigh damping's stiffness-proportional coefficient.
     pub const RAYLEIGH_BETA: ParamSpec =
-        ParamSpec::linear("rayleigh_beta", "stiffness damping β", "s", "Rayleigh damping C = αM + βK₀.", 0.0, 1e4);
+        ParamSpec::linear("rayleigh_beta", "stiffness damping β", "s", "Rayleigh damping C = αM + βK₀.", 0.0, 1e4)
+            .in_scene("solver.rayleigh_beta");
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    const K: ParamSpec =
-        ParamSpec { name: "k", label: "stiffness", unit: "N/m", help: "", min: 0.0, max: 10.0, integer: false };
+    const K: ParamSpec = ParamSpec {
+        name: "k",
+        label: "stiffness",
+        unit: "N/m",
+        help: "",
+        min: 0.0,
+        max: 10.0,
+        integer: false,
+        key: "",
+    };
 
     #[test]
     fn check_refuses_nan_negative_and_fractional_integers() {

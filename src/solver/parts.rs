@@ -99,6 +99,15 @@ pub fn split(setup: &Setup) -> Result<Vec<Piece>, SolverError> {
         .collect()
 }
 
+/// The key of a refused `solver.*` value as the scene gives it: `parts[i].*` when part `i` sets it.
+fn own_key(setup: &Setup, i: usize, key: String) -> String {
+    let part = setup.scene.parts.get(i).and_then(|p| toml::Value::try_from(p).ok());
+    match (key.strip_prefix("solver."), part) {
+        (Some(field), Some(part)) if part.get(field).is_some() => format!("parts[{i}].{field}"),
+        _ => key,
+    }
+}
+
 /// A piece's solver: the model its accuracy target chooses, with why, or the method it names.
 fn build(piece: &Setup) -> Result<(Box<dyn Solver>, Vec<String>), SolverError> {
     match piece.scene.solver.accuracy {
@@ -118,6 +127,9 @@ impl Parts {
             let (solver, why) = build(&sub).map_err(|e| match e {
                 SolverError::Unsuitable { method, reason } => {
                     SolverError::Unsuitable { method, reason: format!("part {i}: {reason}") }
+                }
+                SolverError::SceneValue { file, key, reason } => {
+                    SolverError::SceneValue { file, key: own_key(setup, i, key), reason }
                 }
                 e => e,
             })?;

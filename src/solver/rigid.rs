@@ -34,7 +34,8 @@ pub const FAULTY: Method = Method {
 
 /// The rigid follower's parameter.
 const PARAMS: &[Param<Rigid>] = &[Param::new(
-    ParamSpec::linear("step", "time step", "s", "Fixed time step of the rigid follower.", 1e-6, 1.0),
+    ParamSpec::linear("step", "time step", "s", "Fixed time step of the rigid follower.", 1e-6, 1.0)
+        .in_scene("solver.step"),
     |r| r.step,
     |r, v| r.step = v,
     Redo::Nothing,
@@ -79,7 +80,8 @@ impl Rigid {
     }
 
     fn new(setup: &Setup, faulty: bool) -> Result<Self, SolverError> {
-        let step = PARAMS[0].spec.check(setup.scene.solver.step.unwrap_or(1.0 / 30.0))?;
+        params::check_scene(params::specs(PARAMS), setup)?;
+        let step = setup.scene.solver.step.unwrap_or(1.0 / 30.0);
         let rest = setup.mesh.positions().to_vec();
         let fault = faulty.then_some(0);
         Ok(Self { positions: rest.clone(), drags: DragSet::new(rest.len(), false), rest, step, steps: 0, fault })

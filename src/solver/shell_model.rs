@@ -65,6 +65,7 @@ pub struct ShellModel {
 impl ShellModel {
     /// Build from a realised scene.
     pub fn new(setup: &Setup) -> Result<Self, SolverError> {
+        params::check_scene(params::specs(SHELL_PARAMS), setup)?;
         let m = &setup.scene.material;
         let k = ShellStiffness::from(m);
         let shell = DiscreteShell::new(&setup.mesh, k).map_err(|e| SolverError::Numerical(e.to_string()))?;
@@ -84,7 +85,7 @@ impl ShellModel {
             loads: setup.loads.clone(),
             f_ext: Vec::new(),
             density: m.density,
-            wind: Wind::new(&setup.scene.wind),
+            wind: Wind::of(setup)?,
             blown: false,
             alpha: setup.scene.solver.rayleigh_alpha,
             beta: setup.scene.solver.rayleigh_beta,

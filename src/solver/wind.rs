@@ -10,20 +10,35 @@
 
 use glam::DVec3;
 
-use crate::scene::WindSpec;
+use crate::scene::{Setup, WindSpec};
 use crate::solver::params::{self, Param, Redo};
 use crate::solver::{ParamSpec, ParamValue, SolverError};
 
 const fn spec(name: &'static str, label: &'static str, unit: &'static str, help: &'static str) -> ParamSpec {
-    ParamSpec { name, label, unit, help, min: -100.0, max: 100.0, integer: false }
+    ParamSpec::linear(name, label, unit, help, -100.0, 100.0)
 }
 
 const WIND_X: ParamSpec =
-    spec("wind_x", "wind x", "m/s", "Mean air velocity, x component (drag on the cloth's or shell's triangles).");
-const WIND_Y: ParamSpec = spec("wind_y", "wind y", "m/s", "Mean air velocity, y component.");
-const WIND_Z: ParamSpec = spec("wind_z", "wind z", "m/s", "Mean air velocity, z component.");
+    spec("wind_x", "wind x", "m/s", "Mean air velocity, x component (drag on the cloth's or shell's triangles).")
+        .in_scene("wind.velocity[0]");
+const WIND_Y: ParamSpec =
+    spec("wind_y", "wind y", "m/s", "Mean air velocity, y component.").in_scene("wind.velocity[1]");
+const WIND_Z: ParamSpec =
+    spec("wind_z", "wind z", "m/s", "Mean air velocity, z component.").in_scene("wind.velocity[2]");
 const GUST: ParamSpec =
-    ParamSpec { min: 0.0, max: 1.0, ..spec("wind_gust", "gusts", "", "Relative amplitude of the gusts (0: steady).") };
+    ParamSpec::linear("wind_gust", "gusts", "", "Relative amplitude of the gusts (0: steady).", 0.0, 1.0)
+        .in_scene("wind.gust");
+
+/// What the scene sets once and the panel does not tune: the air's drag coefficient and density, and
+/// the gusts' base frequency.
+const SCENE_ONLY: [ParamSpec; 3] = [
+    ParamSpec::linear("wind_drag", "drag coefficient", "", "Drag coefficient of the normal flow.", 0.0, 100.0)
+        .in_scene("wind.drag"),
+    ParamSpec::linear("air_density", "air density", "kg/m³", "Density of the air.", 0.0, 1e3)
+        .in_scene("wind.air_density"),
+    ParamSpec::linear("gust_frequency", "gust frequency", "Hz", "Base frequency of the gusts.", 0.0, 1e3)
+        .in_scene("wind.gust_frequency"),
+];
 
 /// The wind's parameters, the same in every method's panel: the mean air velocity and the gusts.
 pub const PARAMS: &[Param<Wind>] = &[
@@ -54,8 +69,14 @@ pub struct Wind {
 const GUST_HARMONICS: [f64; 4] = [1.0, 1.93, 3.71, 7.13];
 
 impl Wind {
+    /// The scene's wind, its values checked against the parameters' ranges.
+    pub fn of(setup: &Setup) -> Result<Self, SolverError> {
+        params::check_scene(params::specs(PARAMS).chain(&SCENE_ONLY), setup)?;
+        Ok(Self::new(&setup.scene.wind))
+    }
+
     /// From the scene's `[wind]` table.
-    pub fn new(spec: &WindSpec) -> Self {
+    fn new(spec: &WindSpec) -> Self {
         let mut state = spec.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(1);
         let phases = [0.0; 4].map(|_: f64| {
             state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);

@@ -44,45 +44,55 @@ pub enum Variant {
 }
 
 const fn spec(name: &'static str, label: &'static str, unit: &'static str, help: &'static str, max: f64) -> ParamSpec {
-    ParamSpec { name, label, unit, help, min: 0.0, max, integer: false }
+    ParamSpec::linear(name, label, unit, help, 0.0, max)
 }
 
 const K_S: ParamSpec =
-    spec("k_s", "stretch stiffness k_s", "N/m", "Edge springs: resist stretch only (per spring).", 1e7);
+    spec("k_s", "stretch stiffness k_s", "N/m", "Edge springs: resist stretch only (per spring).", 1e7)
+        .in_scene("material.k_s");
 const K_B: ParamSpec = spec(
     "k_b",
     "bending rigidity k_b",
     "N·m",
     "Diagonal springs: bending rigidity per unit width (a spring gets k_b × the width it stands for).",
     1e3,
-);
+)
+.in_scene("material.k_b");
 const C_B: ParamSpec = spec(
     "c_b",
     "buckling linear branch c_b",
     "N/m",
     "Diagonal springs near rest: c_b (|x| − L), used until buckling pushes harder; about k_s.",
     1e7,
-);
+)
+.in_scene("material.c_b");
 const K_D: ParamSpec =
-    spec("k_d", "spring damping k_d", "N·s/m", "Damping of the relative velocity of every connected pair.", 1e3);
+    spec("k_d", "spring damping k_d", "N·s/m", "Damping of the relative velocity of every connected pair.", 1e3)
+        .in_scene("material.k_d");
 const MU_S: ParamSpec =
-    spec("mu_s", "static friction μ_s", "", "A contact sticks while tangential force ≤ μ_s × normal force.", 10.0);
+    spec("mu_s", "static friction μ_s", "", "A contact sticks while tangential force ≤ μ_s × normal force.", 10.0)
+        .in_scene("material.mu_s");
 const MU_K: ParamSpec =
-    spec("mu_k", "kinetic friction μ_k", "", "A sliding contact feels μ_k × normal force against its motion.", 10.0);
-const STEP: ParamSpec =
-    ParamSpec { min: 1e-5, ..spec("step", "time step", "s", "Backward Euler step (the paper: 0.01 s).", 0.1) };
+    spec("mu_k", "kinetic friction μ_k", "", "A sliding contact feels μ_k × normal force against its motion.", 10.0)
+        .in_scene("material.mu_k");
+const STEP: ParamSpec = ParamSpec {
+    min: 1e-5,
+    ..spec("step", "time step", "s", "Backward Euler step (the paper: 0.01 s).", 0.1).in_scene("solver.step")
+};
 const ITERATIONS: ParamSpec = ParamSpec {
     min: 1.0,
     integer: true,
-    ..spec("iterations", "PCG iterations", "", "Cap on PCG iterations per step.", 1e5)
+    ..spec("iterations", "PCG iterations", "", "Cap on PCG iterations per step.", 1e5).in_scene("solver.iterations")
 };
 const TOLERANCE: ParamSpec = ParamSpec {
     min: 1e-14,
     ..spec("tolerance", "PCG tolerance", "", "Stop when the preconditioned residual falls by this factor.", 1.0)
+        .in_scene("solver.tolerance")
 };
 const MARGIN: ParamSpec = ParamSpec {
     min: 1e-6,
     ..spec("margin", "contact margin", "m", "Distance to a body within which a particle is locked to it.", 1.0)
+        .in_scene("solver.margin")
 };
 
 /// The parameters of both cloth methods, in panel order (the wind's follow them).
@@ -181,6 +191,7 @@ impl Cloth {
     /// Build from a realised scene (material `k_s`, `k_b`, `c_b`, `k_d`, `mu_s`, `mu_k`, `density`;
     /// solver `step` (default 0.01 s), `iterations`, `tolerance`, `margin`).
     pub fn new(setup: &Setup, variant: Variant) -> Result<Self, SolverError> {
+        params::check_scene(params::specs(PARAMS), setup)?;
         let m = &setup.scene.material;
         let s = &setup.scene.solver;
         let method = match variant {
@@ -199,21 +210,12 @@ impl Cloth {
                 return Err(SolverError::Unsuitable { method, reason: "it needs a regular `grid` mesh".into() });
             }
         };
-        let params = SpringParams {
-            k_s: K_S.check(m.k_s)?,
-            k_b: K_B.check(m.k_b)?,
-            c_b: C_B.check(m.c_b)?,
-            k_d: K_D.check(m.k_d)?,
-        };
-        let contact = ContactParams {
-            margin: MARGIN.check(s.margin.unwrap_or(DEFAULT_MARGIN))?,
-            mu_s: MU_S.check(m.mu_s)?,
-            mu_k: MU_K.check(m.mu_k)?,
-        };
-        let h = STEP.check(s.step.unwrap_or(0.01))?;
-        let iterations = ITERATIONS.check(s.iterations as f64)? as u32;
-        let tolerance = TOLERANCE.check(s.tolerance)?;
-        let density = DENSITY.check(m.density)?;
+        let params = SpringParams { k_s: m.k_s, k_b: m.k_b, c_b: m.c_b, k_d: m.k_d };
+        let contact = ContactParams { margin: s.margin.unwrap_or(DEFAULT_MARGIN), mu_s: m.mu_s, mu_k: m.mu_k };
+        let h = s.step.unwrap_or(0.01);
+        let iterations = s.iterations as u32;
+        let tolerance = s.tolerance;
+        let density = m.density;
         let rest = setup.mesh.positions().to_vec();
         let n = rest.len();
         let total_mass: f64 = graph.masses.iter().sum();
@@ -236,7 +238,7 @@ impl Cloth {
             rest,
             anchored: setup.anchored_mask(),
             gravity: setup.gravity(),
-            wind: Wind::new(&setup.scene.wind),
+            wind: Wind::of(setup)?,
             triangles: setup.mesh.triangles().to_vec(),
             density,
             h,

@@ -20,7 +20,12 @@ use crate::linalg::lanczos::{LanczosOptions, lowest_modes};
 use crate::linalg::ordering::nested_dissection;
 use crate::linalg::{BlockAssembler, DofMap, SparseCholesky};
 use crate::mesh::TriMesh;
+use crate::scene::Setup;
 use crate::solver::SolverError;
+use crate::solver::params::{
+    self,
+    shared::{DENSITY, K_AREA, K_BEND, K_LENGTH},
+};
 
 /// What to analyse.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -248,17 +253,19 @@ pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<Mod
 
 /// The deformation modes of a scene's shell (its mesh, anchors, lumped masses and stiffnesses),
 /// computed afresh (no cache).
-pub fn analyse_scene(setup: &crate::scene::Setup, modes: usize) -> Result<ModalAnalysis, SolverError> {
+pub fn analyse_scene(setup: &Setup, modes: usize) -> Result<ModalAnalysis, SolverError> {
     let masses = setup.masses();
-    let problem = ModalProblem {
-        mesh: &setup.mesh,
-        anchors: &setup.anchors,
-        masses: &masses,
-        stiffness: ShellStiffness::from(&setup.scene.material),
-        modes,
-        keep_rigid: false,
-    };
-    analyse(&problem, &|_| {})
+    analyse(&ModalProblem::of_scene(setup, &masses, modes)?, &|_| {})
+}
+
+impl<'a> ModalProblem<'a> {
+    /// The problem of a scene's shell: its mesh, anchors and stiffnesses, with `masses` its lumped
+    /// masses; the material's values checked against the shell's parameter ranges first.
+    pub fn of_scene(setup: &'a Setup, masses: &'a [f64], modes: usize) -> Result<Self, SolverError> {
+        params::check_scene([&K_AREA, &K_LENGTH, &K_BEND, &DENSITY], setup)?;
+        let stiffness = ShellStiffness::from(&setup.scene.material);
+        Ok(Self { mesh: &setup.mesh, anchors: &setup.anchors, masses, stiffness, modes, keep_rigid: false })
+    }
 }
 
 /// The round-off floor of the relative residual of a mode `λ` when the largest eigenvalue of `M⁻¹K` is

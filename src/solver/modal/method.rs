@@ -90,9 +90,11 @@ impl Variant {
 const MODES: ParamSpec = ParamSpec {
     integer: true,
     ..ParamSpec::linear("modes", "modes", "", "Number of vibration modes (recomputed in the background).", 1.0, 256.0)
+        .in_scene("solver.modes")
 };
 /// The modal integrator's step.
-const STEP: ParamSpec = ParamSpec::linear("step", "time step", "s", "Fixed step of the modal integrator.", 1e-5, 0.1);
+const STEP: ParamSpec = ParamSpec::linear("step", "time step", "s", "Fixed step of the modal integrator.", 1e-5, 0.1)
+    .in_scene("solver.step");
 /// The damping of over-determined drags.
 const CONSTRAINT_DAMPING: ParamSpec = ParamSpec::linear(
     "constraint_damping",
@@ -101,7 +103,8 @@ const CONSTRAINT_DAMPING: ParamSpec = ParamSpec::linear(
     "Relative Tikhonov damping of over-determined drags.",
     1e-12,
     1.0,
-);
+)
+.in_scene("solver.constraint_damping");
 
 /// The modal methods' parameters (the wind's follow them).
 const PARAMS: &[Param<ModalSolver>] = &[
@@ -209,6 +212,7 @@ impl ModalSolver {
 
     /// Build from a scene, caching analyses in `cache`.
     pub fn with_cache(setup: &Setup, variant: Variant, cache: Cache) -> Result<Self, SolverError> {
+        params::check_scene(params::specs(PARAMS), setup)?;
         let m = &setup.scene.material;
         let s = &setup.scene.solver;
         let request = Request {
@@ -225,10 +229,10 @@ impl ModalSolver {
         let analysis = request.run(&|_| {}).map_err(|e| named(e, method))?;
         let shape = variant.shape(&setup.mesh, &setup.anchors, &analysis.basis)?;
         let params = ModalParams {
-            step: STEP.check(s.step.unwrap_or(1.0 / 30.0))?,
+            step: s.step.unwrap_or(1.0 / 30.0),
             alpha: s.rayleigh_alpha,
             beta: s.rayleigh_beta,
-            constraint_damping: CONSTRAINT_DAMPING.check(s.constraint_damping.unwrap_or(1e-2))?,
+            constraint_damping: s.constraint_damping.unwrap_or(1e-2),
         };
         let mut solver = Self {
             method,
@@ -236,7 +240,7 @@ impl ModalSolver {
             request,
             loads: setup.loads.clone(),
             gravity: setup.gravity(),
-            wind: Wind::new(&setup.scene.wind),
+            wind: Wind::of(setup)?,
             blown: false,
             previous: setup.mesh.positions().to_vec(),
             params,

@@ -163,6 +163,7 @@ pub struct Pbd {
 impl Pbd {
     /// Build from a scene.
     pub fn new(setup: &Setup, variant: Variant) -> Result<Self, SolverError> {
+        params::check_scene(variant, setup)?;
         let model = Model::new(setup)?;
         let m = &setup.scene.material;
         let s = &setup.scene.solver;
@@ -175,9 +176,8 @@ impl Pbd {
                 reason: format!("material.k_pressure = {k} needs a closed mesh, and this mesh is not closed"),
             });
         }
-        let check = |name: &str, value: f64| params::check(method, name, value);
         let n = model.rest.len();
-        let thickness = check("thickness", s.thickness.unwrap_or(0.1 * model.mean_edge))?;
+        let thickness = s.thickness.unwrap_or(0.1 * model.mean_edge);
         let bodies: Vec<Rigid> = setup.bodies.iter().map(Rigid::new).collect();
         let size = {
             let (lo, hi) = setup.mesh.bounding_box();
@@ -202,26 +202,26 @@ impl Pbd {
                 let edges = model.edges.iter().map(|e| e.v).collect();
                 SelfCollision::new(&model.rest, &model.triangles, edges, model.mean_edge)
             }),
-            wind: Wind::new(&setup.scene.wind),
+            wind: Wind::of(setup)?,
             drags: DragSet::new(n, false),
-            step: check("step", s.step.unwrap_or(1.0 / 60.0))?,
-            sweeps: check("sweeps", s.sweeps as f64)? as usize,
-            substeps: if variant == Variant::Pbd { 1 } else { check("substeps", s.substeps as f64)? as usize },
-            density: check("density", m.density)?,
+            step: s.step.unwrap_or(1.0 / 60.0),
+            sweeps: s.sweeps,
+            substeps: if variant == Variant::Pbd { 1 } else { s.substeps },
+            density: m.density,
             gravity: setup.gravity(),
             damping: 0.1,
-            mu: (check("mu_s", m.mu_s)?, check("mu_k", m.mu_k)?),
+            mu: (m.mu_s, m.mu_k),
             thickness,
-            k_pressure: check("k_pressure", m.k_pressure.unwrap_or(0.0))?,
-            least_area: check("least_area", s.least_area.unwrap_or(0.0))?,
+            k_pressure: m.k_pressure.unwrap_or(0.0),
+            least_area: s.least_area.unwrap_or(0.0),
             areas: near_least_area::Areas::new(&model.triangles, &double_areas),
             double_areas,
             shrunk: Vec::new(),
-            stiffness: (check("pbd_stretch", m.pbd_stretch)?, check("pbd_bend", m.pbd_bend)?),
+            stiffness: (m.pbd_stretch, m.pbd_bend),
             compliance: (m.compliance_stretch, m.compliance_bend),
-            k_s: check("k_s", m.k_s)?,
-            k_b: check("k_b", m.k_b)?,
-            compression: check("compression", m.compression)?,
+            k_s: m.k_s,
+            k_b: m.k_b,
+            compression: m.compression,
             rows: Rows::default(),
             start_rows: Rows::default(),
             multipliers: Multipliers::new(&model),

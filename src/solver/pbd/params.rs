@@ -2,15 +2,18 @@
 //! entry each, with its spec (range, unit, help) and how it reads and writes the solver.
 
 use super::{Pbd, Variant};
+use crate::scene::Setup;
 use crate::solver::params::shared::{DENSITY, GRAVITY_Y};
 use crate::solver::params::{self, Param, Redo};
 use crate::solver::{ParamSpec, ParamValue, SolverError};
 
 const STEP: ParamSpec =
-    ParamSpec::linear("step", "time step", "s", "One step of the simulation (split into substeps).", 1e-5, 0.1);
+    ParamSpec::linear("step", "time step", "s", "One step of the simulation (split into substeps).", 1e-5, 0.1)
+        .in_scene("solver.step");
 const SWEEPS: ParamSpec = ParamSpec {
     integer: true,
     ..ParamSpec::linear("sweeps", "sweeps", "", "Gauss–Seidel sweeps over the constraints per substep.", 1.0, 1000.0)
+        .in_scene("solver.sweeps")
 };
 const DAMPING: ParamSpec = ParamSpec::linear(
     "damping",
@@ -27,7 +30,8 @@ const MU_S: ParamSpec = ParamSpec::linear(
     "A contact sticks while its slip is within μ_s × its normal push.",
     0.0,
     10.0,
-);
+)
+.in_scene("material.mu_s");
 const MU_K: ParamSpec = ParamSpec::linear(
     "mu_k",
     "kinetic friction μ_k",
@@ -35,7 +39,8 @@ const MU_K: ParamSpec = ParamSpec::linear(
     "A sliding contact is slowed by μ_k × its normal push.",
     0.0,
     10.0,
-);
+)
+.in_scene("material.mu_k");
 const THICKNESS: ParamSpec = ParamSpec::linear(
     "thickness",
     "thickness",
@@ -43,7 +48,8 @@ const THICKNESS: ParamSpec = ParamSpec::linear(
     "Collision thickness of the cloth (bodies and itself).",
     1e-6,
     1.0,
-);
+)
+.in_scene("solver.thickness");
 const LEAST_AREA: ParamSpec = ParamSpec::linear(
     "least_area",
     "least area",
@@ -51,7 +57,8 @@ const LEAST_AREA: ParamSpec = ParamSpec::linear(
     "Least area a triangle keeps, / its rest area (0: free to collapse in its plane and turn over).",
     0.0,
     0.99,
-);
+)
+.in_scene("solver.least_area");
 const K_PRESSURE: ParamSpec = ParamSpec::linear(
     "k_pressure",
     "pressure k",
@@ -59,7 +66,8 @@ const K_PRESSURE: ParamSpec = ParamSpec::linear(
     "Balloon: held volume / rest volume (0: no volume constraint; closed meshes only).",
     0.0,
     100.0,
-);
+)
+.in_scene("material.k_pressure");
 const PBD_STRETCH: ParamSpec = ParamSpec::linear(
     "pbd_stretch",
     "stretch k",
@@ -67,7 +75,8 @@ const PBD_STRETCH: ParamSpec = ParamSpec::linear(
     "Stretch stiffness in [0, 1], corrected for the iteration count.",
     0.0,
     1.0,
-);
+)
+.in_scene("material.pbd_stretch");
 const PBD_BEND: ParamSpec = ParamSpec::linear(
     "pbd_bend",
     "bending k",
@@ -75,15 +84,19 @@ const PBD_BEND: ParamSpec = ParamSpec::linear(
     "Bending stiffness in [0, 1], corrected for the iteration count.",
     0.0,
     1.0,
-);
+)
+.in_scene("material.pbd_bend");
 const SUBSTEPS: ParamSpec = ParamSpec {
     integer: true,
     ..ParamSpec::linear("substeps", "substeps", "", "Substeps per step (small substeps beat more sweeps).", 1.0, 1000.0)
+        .in_scene("solver.substeps")
 };
 const K_S: ParamSpec =
-    ParamSpec::linear("k_s", "stretch stiffness k_s", "N/m", "Edge stiffness: compliance 1/k_s.", 1e-6, 1e9);
+    ParamSpec::linear("k_s", "stretch stiffness k_s", "N/m", "Edge stiffness: compliance 1/k_s.", 1e-6, 1e9)
+        .in_scene("material.k_s");
 const K_B: ParamSpec =
-    ParamSpec::linear("k_b", "bending rigidity k_b", "N·m", "Hinge stiffness k_b × 6|e|²/(A₁ + A₂).", 0.0, 1e3);
+    ParamSpec::linear("k_b", "bending rigidity k_b", "N·m", "Hinge stiffness k_b × 6|e|²/(A₁ + A₂).", 0.0, 1e3)
+        .in_scene("material.k_b");
 const COMPRESSION: ParamSpec = ParamSpec::linear(
     "compression",
     "compression",
@@ -91,7 +104,8 @@ const COMPRESSION: ParamSpec = ParamSpec::linear(
     "Fraction of its stretch stiffness an edge keeps in compression (0: tension only).",
     0.0,
     1.0,
-);
+)
+.in_scene("material.compression");
 
 /// Parameters both methods have.
 const COMMON: &[Param<Pbd>] = &[
@@ -121,22 +135,32 @@ const XPBD_PARAMS: &[Param<Pbd>] = &[
     Param::new(COMPRESSION, |p| p.compression, |p, v| p.compression = v, Redo::Nothing),
 ];
 
-/// `value` checked against the range of the parameter `name` of either variant (for `method`'s errors).
-pub(super) fn check(method: &'static str, name: &str, value: f64) -> Result<f64, SolverError> {
-    let all = || COMMON.iter().chain(PBD_PARAMS).chain(XPBD_PARAMS);
-    let Some(p) = all().find(|p| p.spec.name == name) else {
-        return Err(params::unknown(method, name, all().map(|p| p.spec.name)));
-    };
-    p.spec.check(value)
+/// The scene's compliances, which `xpbd` takes instead of `k_s` and `k_b` when given.
+const COMPLIANCES: [ParamSpec; 2] = [
+    ParamSpec::linear("compliance_stretch", "stretch compliance", "m/N", "Compliance of the edges.", 0.0, 1e6)
+        .in_scene("material.compliance_stretch"),
+    ParamSpec::linear("compliance_bend", "bending compliance", "1/(N·m)", "Compliance of the hinges.", 0.0, 1e9)
+        .in_scene("material.compliance_bend"),
+];
+
+/// The parameters of `variant` besides the common ones.
+fn own(variant: Variant) -> &'static [Param<Pbd>] {
+    match variant {
+        Variant::Pbd => PBD_PARAMS,
+        Variant::Xpbd => XPBD_PARAMS,
+    }
+}
+
+/// Check the scene's values of `variant`'s parameters (and, for `xpbd`, its compliances).
+pub(super) fn check_scene(variant: Variant, setup: &Setup) -> Result<(), SolverError> {
+    let compliances: &[ParamSpec] = if variant == Variant::Xpbd { &COMPLIANCES } else { &[] };
+    params::check_scene(params::specs(COMMON).chain(params::specs(own(variant))).chain(compliances), setup)
 }
 
 impl Pbd {
     /// The parameters of this variant besides the common ones.
     fn own_params(&self) -> &'static [Param<Pbd>] {
-        match self.variant {
-            Variant::Pbd => PBD_PARAMS,
-            Variant::Xpbd => XPBD_PARAMS,
-        }
+        own(self.variant)
     }
 
     /// Every parameter with its value, the wind's last.
