@@ -5,7 +5,6 @@ use glam::{DQuat, DVec3, Vec3};
 
 use super::gizmo;
 use crate::collision::{Motion, Shape};
-use crate::mesh::generate;
 use crate::render::{Camera, Frame, Marker, MeshDraw};
 use crate::scene::Setup;
 use crate::solver::script::Rig;
@@ -18,6 +17,8 @@ pub const BACK: [f32; 4] = [0.10, 0.45, 0.50, 1.0];
 /// Wireframe overlay colour.
 pub const WIRE: [f32; 4] = [0.02, 0.02, 0.03, 1.0];
 const COLLIDER: [f32; 4] = [0.55, 0.57, 0.62, 1.0];
+/// The front of a plane collider.
+const GROUND: [f32; 4] = [0.8, 0.8, 0.78, 1.0];
 const ANCHOR: [f32; 4] = [0.15, 0.15, 0.9, 1.0];
 const POSITION_DRAG: [f32; 4] = [0.95, 0.85, 0.1, 1.0];
 const ORIENTATION_DRAG: [f32; 4] = [0.8, 0.1, 0.8, 1.0];
@@ -98,32 +99,15 @@ impl SceneView {
         let mut grid_height = (lo.y - 0.35 * size) as f32;
         let mut colliders = Vec::new();
         for body in &setup.bodies {
-            let local = match &body.shape {
-                Shape::Sphere { radius } => match generate::icosphere(radius - INSET, 12) {
-                    Ok(ball) => mesh_draw(ball.positions(), ball.triangles(), COLLIDER, COLLIDER),
-                    Err(_) => continue,
-                },
-                Shape::Plane { normal } => {
-                    if normal.y > 0.99 && !body.is_moving() {
-                        grid_height = body.origin.y as f32;
-                    }
-                    let (t, b) = normal.any_orthonormal_pair();
-                    let e = 2.0 * size;
-                    let corners =
-                        [-t * e - b * e, t * e - b * e, t * e + b * e, -t * e + b * e].map(|c| c - *normal * INSET);
-                    let tris =
-                        if t.cross(b).dot(*normal) > 0.0 { [[0, 1, 2], [0, 2, 3]] } else { [[0, 2, 1], [0, 3, 2]] };
-                    mesh_draw(&corners, &tris, [0.8, 0.8, 0.78, 1.0], COLLIDER)
-                }
-                Shape::Mesh(mesh) => {
-                    let mut draw = mesh_draw(mesh.positions(), mesh.triangles(), COLLIDER, COLLIDER);
-                    for (p, n) in draw.positions.iter_mut().zip(&draw.normals) {
-                        *p = (Vec3::from(*p) - Vec3::from(*n) * INSET as f32).to_array();
-                    }
-                    draw
-                }
-                Shape::Cuboid { half } => cuboid_draw(*half - DVec3::splat(INSET)),
-            };
+            if let Shape::Plane { normal } = body.shape
+                && normal.y > 0.99
+                && !body.is_moving()
+            {
+                grid_height = body.origin.y as f32;
+            }
+            let Some(surface) = body.shape.drawn(INSET, 2.0 * size) else { continue };
+            let front = if matches!(body.shape, Shape::Plane { .. }) { GROUND } else { COLLIDER };
+            let local = mesh_draw(&surface.positions, &surface.triangles, front, COLLIDER);
             let dynamic = body.mass.is_some();
             colliders.push(if body.is_moving() || dynamic {
                 let (origin, orientation, motion) = (body.origin, body.orientation, body.motion);
@@ -241,26 +225,6 @@ impl SceneView {
 }
 
 /// A box of half extents `half` with flat faces (four vertices of its own per face).
-fn cuboid_draw(half: DVec3) -> MeshDraw {
-    let mut positions = Vec::with_capacity(24);
-    let mut triangles = Vec::with_capacity(12);
-    for axis in 0..3 {
-        for sign in [-1.0, 1.0] {
-            let mut n = DVec3::ZERO;
-            n[axis] = sign;
-            let (u, v) = (DVec3::AXES[(axis + 1) % 3], DVec3::AXES[(axis + 2) % 3]);
-            let base = positions.len();
-            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                positions.push((n + u * a + v * b) * half);
-            }
-            // Counter-clockwise seen from outside: u × v is +n for the positive face.
-            let quad = if sign > 0.0 { [[0, 1, 2], [0, 2, 3]] } else { [[0, 2, 1], [0, 3, 2]] };
-            triangles.extend(quad.map(|t| t.map(|k| base + k)));
-        }
-    }
-    mesh_draw(&positions, &triangles, COLLIDER, COLLIDER)
-}
-
 fn triangles_u32(t: &[[usize; 3]]) -> Vec<[u32; 3]> {
     t.iter().map(|t| t.map(|i| i as u32)).collect()
 }

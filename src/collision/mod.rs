@@ -9,9 +9,11 @@ pub mod bvh;
 pub mod closest;
 pub mod fans;
 mod mesh_distance;
+mod shape;
 
-pub use body::{Body, Contact, Motion, Placed, Shape};
+pub use body::{Body, Contact, Motion, Placed};
 pub use mesh_distance::MeshDistance;
+pub use shape::{Shape, Surface};
 
 /// Why a body could not be made.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
