@@ -51,6 +51,7 @@ use self::batch::Rows;
 use self::bodies::Rigid;
 use self::contact::{SampleHit, Touch};
 use self::model::Model;
+use self::params::Settings;
 use self::project::{Compliance, Multipliers, Stiffness};
 use self::self_collision::SelfCollision;
 use crate::collision::Shape;
@@ -123,28 +124,12 @@ pub struct Pbd {
     self_collision: Option<SelfCollision>,
     wind: Wind,
     drags: DragSet,
-    // Parameters.
-    step: f64,
-    sweeps: usize,
-    substeps: usize,
-    density: f64,
-    gravity: DVec3,
-    damping: f64,
-    mu: (f64, f64),
-    thickness: f64,
-    k_pressure: f64,
-    /// The least area a triangle keeps, / its rest area (0: none); twice each rest area, also packed
-    /// for the scan of which triangles start a substep near the least; and those triangles (scratch).
-    least_area: f64,
+    settings: Settings,
+    /// Twice each rest area, also packed for the scan of which triangles start a substep near the
+    /// least area; and those triangles (scratch).
     double_areas: Vec<f64>,
     areas: near_least_area::Areas,
     shrunk: Vec<u32>,
-    stiffness: (f64, f64),
-    compliance: (Option<f64>, Option<f64>),
-    k_s: f64,
-    k_b: f64,
-    /// The fraction of its stretch stiffness an edge keeps in compression (XPBD).
-    compression: f64,
     // Scratch.
     rows: Rows,
     /// The substep's start as rows, for self-collision's test of its flat patches and the least
@@ -163,7 +148,6 @@ pub struct Pbd {
 impl Pbd {
     /// Build from a scene.
     pub fn new(setup: &Setup, variant: Variant) -> Result<Self, SolverError> {
-        params::check_scene(variant, setup)?;
         let model = Model::new(setup)?;
         let m = &setup.scene.material;
         let s = &setup.scene.solver;
@@ -176,8 +160,8 @@ impl Pbd {
                 reason: format!("material.k_pressure = {k} needs a closed mesh, and this mesh is not closed"),
             });
         }
+        let settings = Settings::new(variant, setup, model.mean_edge)?;
         let n = model.rest.len();
-        let thickness = s.thickness.unwrap_or(0.1 * model.mean_edge);
         let bodies: Vec<Rigid> = setup.bodies.iter().map(Rigid::new).collect();
         let size = {
             let (lo, hi) = setup.mesh.bounding_box();
@@ -204,24 +188,10 @@ impl Pbd {
             }),
             wind: Wind::of(setup)?,
             drags: DragSet::new(n, false),
-            step: s.step.unwrap_or(1.0 / 60.0),
-            sweeps: s.sweeps,
-            substeps: if variant == Variant::Pbd { 1 } else { s.substeps },
-            density: m.density,
-            gravity: setup.gravity(),
-            damping: 0.1,
-            mu: (m.mu_s, m.mu_k),
-            thickness,
-            k_pressure: m.k_pressure.unwrap_or(0.0),
-            least_area: s.least_area.unwrap_or(0.0),
+            settings,
             areas: near_least_area::Areas::new(&model.triangles, &double_areas),
             double_areas,
             shrunk: Vec::new(),
-            stiffness: (m.pbd_stretch, m.pbd_bend),
-            compliance: (m.compliance_stretch, m.compliance_bend),
-            k_s: m.k_s,
-            k_b: m.k_b,
-            compression: m.compression,
             rows: Rows::default(),
             start_rows: Rows::default(),
             multipliers: Multipliers::new(&model),
@@ -249,9 +219,9 @@ impl Pbd {
     /// point load.
     fn update_masses(&mut self) {
         for (i, w) in self.w.iter_mut().enumerate() {
-            let m = self.model.areas[i] * self.density;
+            let m = self.model.areas[i] * self.settings.density;
             *w = if self.model.anchored[i] || m <= 0.0 { 0.0 } else { 1.0 / m };
-            self.weights[i] = self.gravity * m + self.model.loads[i];
+            self.weights[i] = self.settings.gravity * m + self.model.loads[i];
         }
         for (_, d) in self.drags.iter() {
             self.w[d.vertex] = 0.0;
@@ -284,13 +254,6 @@ impl Pbd {
         Ok(())
     }
 
-    /// Compliance of the edges and of hinge `weight` (XPBD), ∞ meaning "no constraint".
-    fn compliances(&self) -> (f64, f64) {
-        let stretch = self.compliance.0.unwrap_or(1.0 / self.k_s);
-        let bend = self.compliance.1.unwrap_or(if self.k_b > 0.0 { 1.0 / self.k_b } else { f64::INFINITY });
-        (stretch, bend)
-    }
-
     /// One substep of `h` ending at time `t`.
     fn substep(&mut self, h: f64, t: f64) {
         // External forces, prediction.
@@ -312,28 +275,29 @@ impl Pbd {
             }
         }
         for b in &mut self.bodies {
-            b.predict(t, h, self.gravity);
+            b.predict(t, h, self.settings.gravity);
         }
-        if self.least_area > 0.0 || self.self_collision.is_some() {
+        if self.settings.least_area > 0.0 || self.self_collision.is_some() {
             self.start_rows.fill(&self.x, &self.w);
         }
-        if self.least_area > 0.0 {
-            self.areas.under(self.start_rows.indexed(), 2.0 * self.least_area, &mut self.shrunk);
+        if self.settings.least_area > 0.0 {
+            self.areas.under(self.start_rows.indexed(), 2.0 * self.settings.least_area, &mut self.shrunk);
         }
         self.rows.fill(&self.p, &self.w);
         self.detect(h);
-        let (alpha_stretch, alpha_bend) = self.compliances();
-        let sweeps = self.sweeps as f64;
+        let (alpha_stretch, alpha_bend) = self.settings.compliances();
+        let sweeps = self.settings.sweeps as f64;
         let correction = |k: f64| 1.0 - (1.0 - k).powf(1.0 / sweeps);
-        for sweep in 0..self.sweeps {
-            let (first, last) = (sweep == 0, sweep + 1 == self.sweeps);
+        for sweep in 0..self.settings.sweeps {
+            let (first, last) = (sweep == 0, sweep + 1 == self.settings.sweeps);
             if !first {
                 self.rows.fill(&self.p, &self.w);
             }
             let (rows, m, lambda) = (&mut self.rows, &self.model, &mut self.multipliers);
             match self.variant {
                 Variant::Pbd => {
-                    let (stretch, bend) = (correction(self.stiffness.0), correction(self.stiffness.1));
+                    let (stretch, bend) =
+                        (correction(self.settings.stiffness.0), correction(self.settings.stiffness.1));
                     let bend = (bend > 0.0).then_some((0.0, Stiffness(bend)));
                     // PBD's rule does not read the multipliers: none is kept.
                     project::sweep(m, rows, lambda, (true, true), (0.0, Stiffness(stretch)), bend);
@@ -343,23 +307,23 @@ impl Pbd {
                     let bend = bend.is_finite().then_some((bend, Compliance::SYMMETRIC));
                     // An edge free in compression still gets a (very large) finite compliance: its
                     // multiplier relaxes to zero instead of dividing by infinity.
-                    let compressed = 1.0 / self.compression.max(1e-12);
+                    let compressed = 1.0 / self.settings.compression.max(1e-12);
                     project::sweep(m, rows, lambda, (first, last), (stretch, Compliance { compressed }), bend);
                 }
             }
             self.rows.read(&mut self.p);
             let (p, w) = (&mut self.p, &self.w);
-            if let (Some(v0), true) = (self.model.six_volume, self.k_pressure > 0.0) {
-                project::volume(&self.model.triangles, p, w, self.k_pressure * v0, &mut self.gradient);
+            if let (Some(v0), true) = (self.model.six_volume, self.settings.k_pressure > 0.0) {
+                project::volume(&self.model.triangles, p, w, self.settings.k_pressure * v0, &mut self.gradient);
             }
             self.collide(h);
         }
         for touch in self.touches.iter().filter(|t| t.pushed > 0.0) {
             let i = touch.particle;
             let body = &mut self.bodies[touch.body];
-            contact::particle_friction(&mut self.p[i], self.x[i], self.w[i], body, touch.pushed, h, self.mu);
+            contact::particle_friction(&mut self.p[i], self.x[i], self.w[i], body, touch.pushed, h, self.settings.mu);
         }
-        if self.least_area > 0.0 {
+        if self.settings.least_area > 0.0 {
             project::least_area(
                 &self.model.triangles,
                 &self.shrunk,
@@ -367,15 +331,15 @@ impl Pbd {
                 &mut self.p,
                 &self.w,
                 &self.double_areas,
-                self.least_area,
+                self.settings.least_area,
             );
         }
         // The last word goes to self-collision: the cloth must not end the substep through itself.
         if let Some(sc) = &self.self_collision {
-            sc.project(&mut self.p, &self.w, &self.model.triangles, self.thickness);
+            sc.project(&mut self.p, &self.w, &self.model.triangles, self.settings.thickness);
         }
         // Velocities from positions; friction; damping.
-        let keep = (1.0 - self.damping * h).max(0.0);
+        let keep = (1.0 - self.settings.damping * h).max(0.0);
         // Damping waits for the self-contacts to settle, if there are any.
         let settling = self.self_collision.as_ref().filter(|sc| sc.active() > 0);
         let now = if settling.is_some() { 1.0 } else { keep };
@@ -385,7 +349,7 @@ impl Pbd {
             *x = *p;
         }
         if let Some(sc) = settling {
-            sc.settle(&self.x, &mut self.v, &self.w, &self.model.triangles, self.thickness);
+            sc.settle(&self.x, &mut self.v, &self.w, &self.model.triangles, self.settings.thickness);
             self.v.iter_mut().for_each(|v| *v *= keep);
         }
         for b in &mut self.bodies {
@@ -401,7 +365,7 @@ impl Pbd {
         self.touches.clear();
         self.samples.clear();
         self.near.clear();
-        let reach = |v: DVec3| self.thickness + v.length() * h + 0.5 * self.model.mean_edge;
+        let reach = |v: DVec3| self.settings.thickness + v.length() * h + 0.5 * self.model.mean_edge;
         // No bodies, no pass over the particles (1.3% of the 10,000-particle hanging sheet's frame).
         if !self.bodies.is_empty() {
             for i in 0..self.x.len() {
@@ -419,7 +383,7 @@ impl Pbd {
         let spacing = 0.5 * self.model.mean_edge;
         for (b, body) in self.bodies.iter().enumerate() {
             let Some(radius) = body.body.shape.bounding_radius() else { continue };
-            let margin = radius + self.thickness + body.velocity.length() * h + self.model.mean_edge;
+            let margin = radius + self.settings.thickness + body.velocity.length() * h + self.model.mean_edge;
             let samples = body.samples(spacing);
             for (t, tri) in self.model.triangles.iter().enumerate() {
                 let centroid = tri.iter().map(|&i| self.p[i]).sum::<DVec3>() / 3.0;
@@ -440,7 +404,7 @@ impl Pbd {
         }
         if let Some(sc) = &mut self.self_collision {
             let rows = [self.start_rows.indexed(), self.rows.indexed()];
-            sc.find([&self.x, &self.p], rows, &self.model.triangles, self.thickness);
+            sc.find([&self.x, &self.p], rows, &self.model.triangles, self.settings.thickness);
         }
     }
 
@@ -449,17 +413,17 @@ impl Pbd {
         for touch in &mut self.touches {
             let i = touch.particle;
             let body = &mut self.bodies[touch.body];
-            touch.pushed += contact::push_particle(&mut self.p[i], self.w[i], body, self.thickness);
+            touch.pushed += contact::push_particle(&mut self.p[i], self.w[i], body, self.settings.thickness);
         }
         for &(b, t) in &self.near {
             if let Shape::Sphere { radius } = self.bodies[b].body.shape {
                 let tri = self.model.triangles[t];
-                contact::push_sphere(&mut self.bodies[b], radius, &mut self.p, &self.w, tri, self.thickness);
+                contact::push_sphere(&mut self.bodies[b], radius, &mut self.p, &self.w, tri, self.settings.thickness);
             }
         }
         for hit in &self.samples {
             let tri = self.model.triangles[hit.triangle];
-            contact::push_sample(&mut self.bodies[hit.body], hit, &mut self.p, &self.w, tri, self.thickness);
+            contact::push_sample(&mut self.bodies[hit.body], hit, &mut self.p, &self.w, tri, self.settings.thickness);
         }
         // Dynamic bodies against the scripted colliders (the ground).
         for b in 0..self.bodies.len() {
@@ -475,12 +439,12 @@ impl Pbd {
                         let (l, r) = self.bodies.split_at_mut(b);
                         (&mut r[0], &l[g])
                     };
-                    contact::push_body(body, ground, h, self.mu);
+                    contact::push_body(body, ground, h, self.settings.mu);
                 }
             }
         }
         if let Some(sc) = &self.self_collision {
-            sc.project(&mut self.p, &self.w, &self.model.triangles, self.thickness);
+            sc.project(&mut self.p, &self.w, &self.model.triangles, self.settings.thickness);
         }
     }
 
@@ -489,12 +453,12 @@ impl Pbd {
     fn energy_and_strain(&self) -> (f64, f64) {
         let mut e = 0.0;
         for i in 0..self.x.len() {
-            let m = self.model.areas[i] * self.density;
-            e += 0.5 * m * self.v[i].length_squared() - m * self.gravity.dot(self.x[i] - self.model.rest[i]);
+            let m = self.model.areas[i] * self.settings.density;
+            e += 0.5 * m * self.v[i].length_squared() - m * self.settings.gravity.dot(self.x[i] - self.model.rest[i]);
         }
         let k = match self.variant {
-            Variant::Xpbd => 1.0 / self.compliances().0,
-            Variant::Pbd => self.k_s,
+            Variant::Xpbd => 1.0 / self.settings.compliances().0,
+            Variant::Pbd => self.settings.k_s,
         };
         let mut strain = 0.0f64;
         for edge in &self.model.edges {
@@ -507,7 +471,7 @@ impl Pbd {
 
     /// Total linear momentum of the cloth, kg·m/s.
     pub fn cloth_momentum(&self) -> DVec3 {
-        self.v.iter().zip(&self.model.areas).map(|(v, a)| *v * (a * self.density)).sum()
+        self.v.iter().zip(&self.model.areas).map(|(v, a)| *v * (a * self.settings.density)).sum()
     }
 
     /// Linear momentum of collider `i` (zero for a scripted one), kg·m/s.
@@ -522,18 +486,18 @@ impl Solver for Pbd {
     }
 
     fn time_step(&self) -> f64 {
-        self.step
+        self.settings.step
     }
 
     fn step(&mut self) -> Result<StepStats, SolverError> {
         let start = Instant::now();
         self.update_masses();
-        let h = self.step / self.substeps as f64;
-        for k in 1..=self.substeps {
+        let h = self.settings.step / self.settings.substeps as f64;
+        for k in 1..=self.settings.substeps {
             crate::solver::supersede::checkpoint();
             self.substep(h, self.time + h * k as f64);
         }
-        self.time += self.step;
+        self.time += self.settings.step;
         self.steps += 1;
         let (energy, strain) = self.energy_and_strain();
         check_finite(self.steps, self.time, &self.x, energy, self.energy_limit)?;
@@ -543,7 +507,7 @@ impl Solver for Pbd {
             sim_time: self.time,
             energy,
             residual: strain,
-            iterations: (self.sweeps * self.substeps) as u32,
+            iterations: (self.settings.sweeps * self.settings.substeps) as u32,
             ..StepStats::default()
         })
     }

@@ -1,5 +1,8 @@
-//! The parameters of `pbd` and `xpbd` as the panel, `--set` and the evaluator see them: one table
-//! entry each, with its spec (range, unit, help) and how it reads and writes the solver.
+//! The settings of `pbd` and `xpbd`, apart from their state and scratch, and their parameters as the
+//! panel, `--set` and the scene see them: one table entry each, with its spec (range, unit, help,
+//! scene key) and how it reads and writes the settings.
+
+use glam::DVec3;
 
 use super::{Pbd, Variant};
 use crate::scene::Setup;
@@ -108,7 +111,7 @@ const COMPRESSION: ParamSpec = ParamSpec::linear(
 .in_scene("material.compression");
 
 /// Parameters both methods have.
-const COMMON: &[Param<Pbd>] = &[
+const COMMON: &[Param<Settings>] = &[
     Param::new(STEP, |p| p.step, |p, v| p.step = v, Redo::Nothing),
     Param::new(SWEEPS, |p| p.sweeps as f64, |p, v| p.sweeps = v as usize, Redo::Nothing),
     Param::new(DENSITY, |p| p.density, |p, v| p.density = v, Redo::Nothing),
@@ -122,16 +125,16 @@ const COMMON: &[Param<Pbd>] = &[
 ];
 
 /// Parameters of `pbd` only.
-const PBD_PARAMS: &[Param<Pbd>] = &[
+const PBD_PARAMS: &[Param<Settings>] = &[
     Param::new(PBD_STRETCH, |p| p.stiffness.0, |p, v| p.stiffness.0 = v, Redo::Nothing),
     Param::new(PBD_BEND, |p| p.stiffness.1, |p, v| p.stiffness.1 = v, Redo::Nothing),
 ];
 
 /// Parameters of `xpbd` only.
-const XPBD_PARAMS: &[Param<Pbd>] = &[
+const XPBD_PARAMS: &[Param<Settings>] = &[
     Param::new(SUBSTEPS, |p| p.substeps as f64, |p, v| p.substeps = v as usize, Redo::Nothing),
-    Param::new(K_S, |p| p.k_s, Pbd::set_k_s, Redo::Nothing),
-    Param::new(K_B, |p| p.k_b, Pbd::set_k_b, Redo::Nothing),
+    Param::new(K_S, |p| p.k_s, Settings::set_k_s, Redo::Nothing),
+    Param::new(K_B, |p| p.k_b, Settings::set_k_b, Redo::Nothing),
     Param::new(COMPRESSION, |p| p.compression, |p, v| p.compression = v, Redo::Nothing),
 ];
 
@@ -144,46 +147,64 @@ const COMPLIANCES: [ParamSpec; 2] = [
 ];
 
 /// The parameters of `variant` besides the common ones.
-fn own(variant: Variant) -> &'static [Param<Pbd>] {
+fn own(variant: Variant) -> &'static [Param<Settings>] {
     match variant {
         Variant::Pbd => PBD_PARAMS,
         Variant::Xpbd => XPBD_PARAMS,
     }
 }
 
-/// Check the scene's values of `variant`'s parameters (and, for `xpbd`, its compliances).
-pub(super) fn check_scene(variant: Variant, setup: &Setup) -> Result<(), SolverError> {
-    let compliances: &[ParamSpec] = if variant == Variant::Xpbd { &COMPLIANCES } else { &[] };
-    params::check_scene(params::specs(COMMON).chain(params::specs(own(variant))).chain(compliances), setup)
+/// What `pbd` and `xpbd` are set to: their step, sweeps and material, as the scene gives them and
+/// the parameters change them.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Settings {
+    pub step: f64,
+    pub sweeps: usize,
+    pub substeps: usize,
+    pub density: f64,
+    pub gravity: DVec3,
+    /// Velocity damping rate of the cloth and the dynamic bodies, 1/s.
+    pub damping: f64,
+    /// Static and kinetic friction.
+    pub mu: (f64, f64),
+    pub thickness: f64,
+    pub k_pressure: f64,
+    /// The least area a triangle keeps, / its rest area (0: none).
+    pub least_area: f64,
+    /// `pbd`'s stretch and bending stiffness fractions.
+    pub stiffness: (f64, f64),
+    /// `xpbd`'s compliances as the scene gives them (absent: from `k_s` and `k_b`).
+    pub compliance: (Option<f64>, Option<f64>),
+    pub k_s: f64,
+    pub k_b: f64,
+    /// The fraction of its stretch stiffness an edge keeps in compression (XPBD).
+    pub compression: f64,
 }
 
-impl Pbd {
-    /// The parameters of this variant besides the common ones.
-    fn own_params(&self) -> &'static [Param<Pbd>] {
-        own(self.variant)
-    }
-
-    /// Every parameter with its value, the wind's last.
-    pub(super) fn param_values(&self) -> Vec<ParamValue> {
-        [params::values(COMMON, self), params::values(self.own_params(), self), self.wind.params()].concat()
-    }
-
-    /// Set the parameter `name` to `value`, checked against its range (and, for the pressure, the mesh).
-    pub(super) fn set(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
-        if name == K_PRESSURE.name && K_PRESSURE.check(value)? > 0.0 && !self.model.is_closed() {
-            return Err(SolverError::BadParam {
-                name: name.into(),
-                value,
-                reason: "needs a closed mesh, and this mesh is not closed".into(),
-            });
-        }
-        if self.wind.set_param(name, value)? || params::assign(COMMON, self, name, value)?.is_some() {
-            return Ok(());
-        }
-        match params::assign(self.own_params(), self, name, value)? {
-            Some(_) => Ok(()),
-            None => Err(params::unknown(self.method_name(), name, self.param_values().iter().map(|p| p.spec.name))),
-        }
+impl Settings {
+    /// The scene's settings for `variant`, checked against the parameters' ranges; the thickness is a
+    /// tenth of `mean_edge` unless the scene gives it.
+    pub fn new(variant: Variant, setup: &Setup, mean_edge: f64) -> Result<Self, SolverError> {
+        let compliances: &[ParamSpec] = if variant == Variant::Xpbd { &COMPLIANCES } else { &[] };
+        params::check_scene(params::specs(COMMON).chain(params::specs(own(variant))).chain(compliances), setup)?;
+        let (m, s) = (&setup.scene.material, &setup.scene.solver);
+        Ok(Self {
+            step: s.step.unwrap_or(1.0 / 60.0),
+            sweeps: s.sweeps,
+            substeps: if variant == Variant::Pbd { 1 } else { s.substeps },
+            density: m.density,
+            gravity: setup.gravity(),
+            damping: 0.1,
+            mu: (m.mu_s, m.mu_k),
+            thickness: s.thickness.unwrap_or(0.1 * mean_edge),
+            k_pressure: m.k_pressure.unwrap_or(0.0),
+            least_area: s.least_area.unwrap_or(0.0),
+            stiffness: (m.pbd_stretch, m.pbd_bend),
+            compliance: (m.compliance_stretch, m.compliance_bend),
+            k_s: m.k_s,
+            k_b: m.k_b,
+            compression: m.compression,
+        })
     }
 
     /// A new stretch stiffness: the compliance follows on the next step.
@@ -196,5 +217,38 @@ impl Pbd {
     fn set_k_b(&mut self, k_b: f64) {
         self.k_b = k_b;
         self.compliance.1 = None;
+    }
+
+    /// The compliances of the stretch and bending constraints: the scene's, else `1/k_s` and `1/k_b`.
+    pub fn compliances(&self) -> (f64, f64) {
+        let stretch = self.compliance.0.unwrap_or(1.0 / self.k_s);
+        let bend = self.compliance.1.unwrap_or(if self.k_b > 0.0 { 1.0 / self.k_b } else { f64::INFINITY });
+        (stretch, bend)
+    }
+}
+
+impl Pbd {
+    /// Every parameter with its value, the wind's last.
+    pub(super) fn param_values(&self) -> Vec<ParamValue> {
+        let own = own(self.variant);
+        [params::values(COMMON, &self.settings), params::values(own, &self.settings), self.wind.params()].concat()
+    }
+
+    /// Set the parameter `name` to `value`, checked against its range (and, for the pressure, the mesh).
+    pub(super) fn set(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
+        if name == K_PRESSURE.name && K_PRESSURE.check(value)? > 0.0 && !self.model.is_closed() {
+            return Err(SolverError::BadParam {
+                name: name.into(),
+                value,
+                reason: "needs a closed mesh, and this mesh is not closed".into(),
+            });
+        }
+        if self.wind.set_param(name, value)? || params::assign(COMMON, &mut self.settings, name, value)?.is_some() {
+            return Ok(());
+        }
+        match params::assign(own(self.variant), &mut self.settings, name, value)? {
+            Some(_) => Ok(()),
+            None => Err(params::unknown(self.method_name(), name, self.param_values().iter().map(|p| p.spec.name))),
+        }
     }
 }
