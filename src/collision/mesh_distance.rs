@@ -77,6 +77,11 @@ impl MeshDistance {
         &self.triangles
     }
 
+    /// The outward angle-weighted pseudonormal of each vertex (not normalised).
+    pub fn vertex_normals(&self) -> &[DVec3] {
+        &self.vertex_normals
+    }
+
     /// Signed distance from `x` to the surface (negative inside) and the unit outward direction.
     pub fn signed_distance(&self, x: DVec3) -> (f64, DVec3) {
         let mut best = (f64::INFINITY, 0usize, DVec3::ZERO, Feature::Face);

@@ -129,14 +129,9 @@ impl Shape {
                 Surface { positions, triangles }
             }
             Shape::Mesh(mesh) => {
-                let (p, triangles) = (mesh.positions(), mesh.triangles());
-                let mut normals = vec![DVec3::ZERO; p.len()];
-                for t in triangles {
-                    let n = (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]);
-                    t.iter().for_each(|&i| normals[i] += n);
-                }
-                let positions = p.iter().zip(&normals).map(|(&x, n)| x - n.normalize_or_zero() * inset).collect();
-                Surface { positions, triangles: triangles.to_vec() }
+                let inward = mesh.vertex_normals().iter().map(|n| n.normalize_or_zero() * inset);
+                let positions = mesh.positions().iter().zip(inward).map(|(&x, d)| x - d).collect();
+                Surface { positions, triangles: mesh.triangles().to_vec() }
             }
             Shape::Cuboid { half } => cuboid(*half - DVec3::splat(inset)),
         })
@@ -169,18 +164,21 @@ mod tests {
     use super::*;
 
     /// Every drawn triangle faces out: its normal points away from the shape (the signed distance
-    /// grows along it), and its corners lie `inset` inside the surface.
+    /// grows along it), and its corners lie `inset` inside the surface (a mesh's corners, moved along
+    /// their pseudonormals, lie inside by at most `inset`: the nearest surface may be a face).
     #[test]
     fn drawn_surfaces_face_out_and_lie_inset_inside() {
         let inset = 0.01;
+        let ball = generate::icosphere(0.5, 3).unwrap();
+        let mesh = Shape::Mesh(Box::new(MeshDistance::new(&ball).unwrap()));
         for shape in [
             Shape::Sphere { radius: 0.5 },
             Shape::Cuboid { half: DVec3::new(0.3, 0.2, 0.1) },
             Shape::Plane { normal: DVec3::new(0.0, 0.6, 0.8) },
+            mesh,
         ] {
             let s = shape.drawn(inset, 2.0).unwrap();
             assert!(!s.triangles.is_empty(), "{shape:?}");
-            assert!(Shape::Sphere { radius: inset }.drawn(inset, 2.0).is_none(), "nothing left of the ball");
             for t in &s.triangles {
                 let [a, b, c] = t.map(|i| s.positions[i]);
                 let centre = (a + b + c) / 3.0;
@@ -191,8 +189,12 @@ mod tests {
             for p in &s.positions {
                 let (d, _) = shape.surface(*p);
                 // A ball's icosphere corners lie on its sphere; the chords between them lie inside.
-                assert!((d + inset).abs() < 1e-9, "{shape:?}: corner at distance {d}");
+                match shape {
+                    Shape::Mesh(_) => assert!(d < -0.5 * inset && d >= -inset - 1e-12, "mesh corner at {d}"),
+                    _ => assert!((d + inset).abs() < 1e-9, "{shape:?}: corner at distance {d}"),
+                }
             }
         }
+        assert!(Shape::Sphere { radius: inset }.drawn(inset, 2.0).is_none(), "nothing left of the ball");
     }
 }

@@ -13,6 +13,7 @@ mod validate;
 
 pub use builtin::{BUILTIN, builtin_names};
 pub use error::SceneError;
+pub use overrides::SceneNumbers;
 pub use schema::{
     CameraSpec, Collider, Load, Material, MeshSource, Motion, Part, Placement, Scene, SolverSettings, WindSpec,
 };

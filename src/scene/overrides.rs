@@ -4,11 +4,21 @@
 use super::{Scene, SceneError};
 
 impl Scene {
+    /// Its numbers, to be read by dotted key (the scene is written as TOML once, here).
+    pub fn numbers(&self) -> SceneNumbers {
+        SceneNumbers(toml::Value::try_from(self).ok())
+    }
+}
+
+/// A scene's values as a TOML tree, read number by number ([`Scene::numbers`]).
+#[derive(Debug, Clone)]
+pub struct SceneNumbers(Option<toml::Value>);
+
+impl SceneNumbers {
     /// The number at the dotted `key` (`material.k_bend`, `gravity[1]`), or `None` where the scene
     /// leaves it out (an absent optional value) or holds no number there.
-    pub fn number(&self, key: &str) -> Option<f64> {
-        let tree = toml::Value::try_from(self).ok()?;
-        let mut node = &tree;
+    pub fn get(&self, key: &str) -> Option<f64> {
+        let mut node = self.0.as_ref()?;
         for part in key.split('.') {
             match part.split_once('[') {
                 Some((name, index)) => {
@@ -124,13 +134,13 @@ mod tests {
     fn numbers_are_read_back_by_their_dotted_keys() {
         let text = "name = \"t\"\ngravity = [0, -2.5, 0]\n[mesh.grid]\nsize = [1.0, 0.1]\nsegments = [4, 1]\n\
                     [material]\nk_bend = 3.0\n[solver]\nmethod = \"rigid\"\nmodes = 5\n";
-        let scene: Scene = toml::from_str(text).unwrap();
-        assert_eq!(scene.number("material.k_bend"), Some(3.0));
-        assert_eq!(scene.number("solver.modes"), Some(5.0), "integers too");
-        assert_eq!(scene.number("gravity[1]"), Some(-2.5));
-        assert_eq!(scene.number("solver.step"), None, "left out: the method's default");
-        assert_eq!(scene.number("solver.method"), None, "not a number");
-        assert_eq!((scene.number("gravity[3]"), scene.number("material.nothing")), (None, None));
+        let numbers = toml::from_str::<Scene>(text).unwrap().numbers();
+        assert_eq!(numbers.get("material.k_bend"), Some(3.0));
+        assert_eq!(numbers.get("solver.modes"), Some(5.0), "integers too");
+        assert_eq!(numbers.get("gravity[1]"), Some(-2.5));
+        assert_eq!(numbers.get("solver.step"), None, "left out: the method's default");
+        assert_eq!(numbers.get("solver.method"), None, "not a number");
+        assert_eq!((numbers.get("gravity[3]"), numbers.get("material.nothing")), (None, None));
     }
 
     #[test]

@@ -105,7 +105,7 @@ fn mesh(m: &MeshSource) -> Result<(), Invalid> {
 }
 
 /// Every value fits TOML's types (its whole numbers are 64-bit signed), so that every key can be read
-/// back ([`Scene::number`]): the first whole number that does not, by its key.
+/// back ([`Scene::numbers`]): the first whole number that does not, by its key.
 fn representable(scene: &Scene) -> Result<(), Invalid> {
     if toml::Value::try_from(scene).is_ok() {
         return Ok(());

@@ -73,8 +73,9 @@ impl ParamSpec {
 /// Check the scene's value of every spec that has a scene key (a key the scene leaves out takes the
 /// method's default); the error names the key, as the scene's own checks do.
 pub fn check_scene<'a>(specs: impl IntoIterator<Item = &'a ParamSpec>, setup: &Setup) -> Result<(), SolverError> {
+    let numbers = setup.scene.numbers();
     for spec in specs.into_iter().filter(|s| !s.key.is_empty()) {
-        let Some(value) = setup.scene.number(spec.key) else { continue };
+        let Some(value) = numbers.get(spec.key) else { continue };
         if let Some(reason) = spec.refusal(value) {
             let (file, key) = (setup.origin.label.clone(), spec.key.to_string());
             return Err(SolverError::SceneValue { file, key, reason: format!("{value} is {reason}") });
