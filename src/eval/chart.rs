@@ -40,6 +40,7 @@ pub fn method_color(method: &str) -> RGBColor {
         "lma" => RGBColor(214, 39, 40),
         "mwts" => RGBColor(31, 119, 180),
         "mwts-rs" => RGBColor(23, 190, 207),
+        "rds" => RGBColor(0, 0, 128),
         "ds-static" => RGBColor(0, 0, 0),
         "ds" => RGBColor(127, 127, 127),
         "ds-implicit" => RGBColor(44, 160, 44),

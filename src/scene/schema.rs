@@ -331,6 +331,9 @@ pub struct Part {
     /// Modal methods: relative compliance of drag constraints.
     #[serde(default)]
     pub constraint_damping: Option<f64>,
+    /// `rds`: modal-derivative directions kept.
+    #[serde(default)]
+    pub derivatives: Option<i64>,
     /// Target relative displacement-field error of this part: the part gets the cheapest model that
     /// meets it (as `solver.accuracy` does for a scene; `method`, else `[solver]`'s, names the family
     /// to choose from).
@@ -353,6 +356,7 @@ impl Part {
         s.rayleigh_alpha = self.rayleigh_alpha.unwrap_or(s.rayleigh_alpha);
         s.rayleigh_beta = self.rayleigh_beta.unwrap_or(s.rayleigh_beta);
         s.constraint_damping = self.constraint_damping.or(s.constraint_damping);
+        s.derivatives = self.derivatives.or(s.derivatives);
         s
     }
 }
@@ -397,6 +401,11 @@ pub struct SolverSettings {
     /// default 1e-2 if absent). Smaller follows drags and tracks more tightly.
     #[serde(default)]
     pub constraint_damping: Option<f64>,
+    /// `rds`: modal-derivative directions kept beside the modes after mass-PCA pruning (absent: all
+    /// pairs of the modes, at most four per mode). Signed so that a negative value is refused by
+    /// `rds`'s range, naming its key, rather than by the parser.
+    #[serde(default)]
+    pub derivatives: Option<i64>,
     /// Position-based methods: Gauss–Seidel sweeps over the constraints per substep.
     #[serde(default = "default_sweeps")]
     pub sweeps: usize,

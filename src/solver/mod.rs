@@ -41,6 +41,7 @@ pub mod params;
 pub mod parts;
 pub mod pbd;
 pub mod quality;
+pub mod reduced;
 pub mod registry;
 mod rigid;
 pub mod run;

@@ -1,6 +1,6 @@
 //! The list of methods: a name, a one-line summary and a constructor. Adding a method is one line here.
 
-use super::{Method, Solver, SolverError, cloth, ds_explicit, ds_implicit, ds_static, modal, pbd, rigid};
+use super::{Method, Solver, SolverError, cloth, ds_explicit, ds_implicit, ds_static, modal, pbd, reduced, rigid};
 use crate::scene::Setup;
 
 /// Every method, in the order the UI lists them.
@@ -8,6 +8,7 @@ pub const METHODS: &[Method] = &[
     modal::method::MWTS,
     modal::method::MWTS_RS,
     modal::method::LMA,
+    reduced::RDS,
     ds_implicit::METHOD,
     ds_static::METHOD,
     ds_explicit::METHOD,

@@ -16,7 +16,11 @@
 use std::cell::RefCell;
 use std::panic::{AssertUnwindSafe, catch_unwind, resume_unwind};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::mpsc::{self, Receiver, TryRecvError};
+use std::time::Duration;
+
+use super::SolverError;
 
 /// A shared request counter: the newest ticket is the only current one.
 #[derive(Debug, Clone, Default)]
@@ -46,6 +50,62 @@ impl Ticket {
     /// Whether no newer request has been made.
     pub fn is_current(&self) -> bool {
         self.generation.0.load(Ordering::SeqCst) == self.number
+    }
+}
+
+/// A result computed on a background thread (a solver's new basis after an edit), stopped when a
+/// newer request of the same [`Generation`] supersedes it, with its progress.
+pub struct Background<T> {
+    receiver: Receiver<Result<T, SolverError>>,
+    progress: Arc<AtomicU32>,
+    what: &'static str,
+}
+
+impl<T: Send + 'static> Background<T> {
+    /// Start `work` (`what` it computes, for messages) on a thread named `name`, after waiting
+    /// `settle` for further edits: a burst of edits costs one run, the last.
+    pub fn start(
+        name: &str,
+        what: &'static str,
+        generation: &Generation,
+        settle: Duration,
+        work: impl FnOnce(&dyn Fn(f32)) -> Result<T, SolverError> + Send + 'static,
+    ) -> Self {
+        let (tx, receiver) = mpsc::channel();
+        let progress = Arc::new(AtomicU32::new(0));
+        let (p, ticket) = (progress.clone(), generation.next());
+        // If the thread cannot start, `tx` goes with it and the result reads as stopped.
+        let _ = std::thread::Builder::new().name(name.into()).spawn(move || {
+            std::thread::sleep(settle);
+            let report = move |f: f32| p.store(f.to_bits(), Ordering::Relaxed);
+            if let Some(result) = unless_superseded(&ticket, &report, work) {
+                let _ = tx.send(result);
+            }
+        });
+        Self { receiver, progress, what }
+    }
+
+    /// The result once it is ready; `None` while the work runs.
+    pub fn ready(&self) -> Option<Result<T, SolverError>> {
+        match self.receiver.try_recv() {
+            Ok(result) => Some(result),
+            Err(TryRecvError::Empty) => None,
+            Err(TryRecvError::Disconnected) => Some(Err(self.stopped())),
+        }
+    }
+
+    /// Wait for the result.
+    pub fn wait(&self) -> Result<T, SolverError> {
+        self.receiver.recv().unwrap_or_else(|_| Err(self.stopped()))
+    }
+
+    /// The completed fraction, in `[0, 1]`.
+    pub fn fraction(&self) -> f32 {
+        f32::from_bits(self.progress.load(Ordering::Relaxed))
+    }
+
+    fn stopped(&self) -> SolverError {
+        SolverError::Numerical(format!("the background {} stopped", self.what))
     }
 }
 

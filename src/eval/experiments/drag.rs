@@ -64,8 +64,8 @@ const FLOOR: f64 = 1e-5;
 /// Twists of the strip's tip row, degrees.
 const TURNS: [f64; 3] = [90.0, 180.0, 360.0];
 
-/// The models of a scene: the modal methods at these mode counts, and `ds-implicit` where it is
-/// affordable (not on the 12,962-vertex creature, at 1.6 s a step).
+/// The models of a scene: the modal methods at these mode counts, `rds` where it is affordable, and
+/// `ds-implicit` where it is (not on the 12,962-vertex creature, at 1.6 s a step).
 fn models(scene: &str, quick: bool) -> Vec<(&'static str, Option<usize>)> {
     let modes: &[usize] = match (scene, quick) {
         (_, true) => &[8],
@@ -74,6 +74,14 @@ fn models(scene: &str, quick: bool) -> Vec<(&'static str, Option<usize>)> {
     };
     let mut v: Vec<(&'static str, Option<usize>)> =
         ["lma", "mwts", "mwts-rs"].iter().flat_map(|&m| modes.iter().map(move |&k| (m, Some(k)))).collect();
+    // `rds` where its full energy is affordable: on the creature (0.4 s a step) at 4 modes, in the
+    // full sweep only.
+    let reduced: &[usize] = match (scene, quick) {
+        ("creature", true) => &[],
+        ("creature", false) => &[4],
+        _ => modes,
+    };
+    v.extend(reduced.iter().map(|&k| ("rds", Some(k))));
     if scene != "creature" {
         v.push(("ds-implicit", None));
     }

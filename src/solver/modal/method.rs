@@ -7,9 +7,7 @@
 //! an analysis runs supersedes it: the old run stops at its next stage ([`crate::solver::supersede`]), and a
 //! new run starts after a short pause so a burst of edits costs one analysis.
 
-use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::mpsc::{Receiver, TryRecvError};
-use std::sync::{Arc, mpsc};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
@@ -25,7 +23,7 @@ use crate::mesh::TriMesh;
 use crate::scene::Setup;
 use crate::solver::params::shared::{DENSITY, GRAVITY_Y, K_AREA, K_BEND, K_LENGTH, RAYLEIGH_ALPHA, RAYLEIGH_BETA};
 use crate::solver::params::{self, Param, Redo};
-use crate::solver::supersede::{Generation, unless_superseded};
+use crate::solver::supersede::{Background, Generation};
 use crate::solver::wind::Wind;
 use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
 use crate::solver::{Footprint, Method};
@@ -87,16 +85,17 @@ impl Variant {
 }
 
 /// The number of modes.
-const MODES: ParamSpec = ParamSpec {
+pub(crate) const MODES: ParamSpec = ParamSpec {
     integer: true,
     ..ParamSpec::linear("modes", "modes", "", "Number of vibration modes (recomputed in the background).", 1.0, 256.0)
         .in_scene("solver.modes")
 };
 /// The modal integrator's step.
-const STEP: ParamSpec = ParamSpec::linear("step", "time step", "s", "Fixed step of the modal integrator.", 1e-5, 0.1)
-    .in_scene("solver.step");
+pub(crate) const STEP: ParamSpec =
+    ParamSpec::linear("step", "time step", "s", "Fixed step of the modal integrator.", 1e-5, 0.1)
+        .in_scene("solver.step");
 /// The damping of over-determined drags.
-const CONSTRAINT_DAMPING: ParamSpec = ParamSpec::linear(
+pub(crate) const CONSTRAINT_DAMPING: ParamSpec = ParamSpec::linear(
     "constraint_damping",
     "drag damping",
     "",
@@ -124,33 +123,45 @@ const PARAMS: &[Param<ModalSolver>] = &[
         Redo::Nothing,
     ),
 ];
-/// A basis being recomputed in the background.
-struct Pending {
-    receiver: Receiver<Result<ModalAnalysis, SolverError>>,
-    progress: Arc<AtomicU32>,
-}
-
-/// Everything a modal analysis depends on, owned so that it can go to a background thread.
+/// Everything a modal analysis depends on, owned so that it can go to a background thread (`rds`
+/// builds on it too).
 #[derive(Debug, Clone)]
-struct Request {
-    cache: Cache,
-    mesh: Arc<TriMesh>,
-    anchors: Arc<Vec<usize>>,
+pub(crate) struct Request {
+    pub(crate) cache: Cache,
+    pub(crate) mesh: Arc<TriMesh>,
+    pub(crate) anchors: Arc<Vec<usize>>,
     /// Lumped vertex areas (masses are these times the density).
-    area: Arc<Vec<f64>>,
-    density: f64,
-    stiffness: ShellStiffness,
-    modes: usize,
+    pub(crate) area: Arc<Vec<f64>>,
+    pub(crate) density: f64,
+    pub(crate) stiffness: ShellStiffness,
+    pub(crate) modes: usize,
     /// Keep the rigid modes: a free shell held only by tracks must be able to move as a whole.
-    keep_rigid: bool,
+    pub(crate) keep_rigid: bool,
 }
 
 impl Request {
-    fn masses(&self) -> Vec<f64> {
+    /// The analysis a scene asks for (its mesh, anchors, material and mode count), cached in `cache`.
+    pub(crate) fn of(setup: &Setup, cache: Cache) -> Self {
+        let m = &setup.scene.material;
+        Self {
+            cache,
+            mesh: Arc::new(setup.mesh.clone()),
+            anchors: Arc::new(setup.anchors.clone()),
+            area: Arc::new(setup.mesh.vertex_areas()),
+            density: m.density,
+            stiffness: ShellStiffness::from(m),
+            modes: setup.scene.solver.modes,
+            keep_rigid: setup.anchors.is_empty() && !setup.tracks.is_empty(),
+        }
+    }
+
+    /// The lumped vertex masses, kg.
+    pub(crate) fn masses(&self) -> Vec<f64> {
         self.area.iter().map(|a| a * self.density).collect()
     }
 
-    fn problem<'a>(&'a self, masses: &'a [f64]) -> ModalProblem<'a> {
+    /// The modal problem, with `masses` from [`Request::masses`].
+    pub(crate) fn problem<'a>(&'a self, masses: &'a [f64]) -> ModalProblem<'a> {
         ModalProblem {
             mesh: &self.mesh,
             anchors: &self.anchors,
@@ -162,7 +173,7 @@ impl Request {
     }
 
     /// Cached or freshly computed (and then cached) modes.
-    fn run(&self, progress: &dyn Fn(f32)) -> Result<ModalAnalysis, SolverError> {
+    pub(crate) fn run(&self, progress: &dyn Fn(f32)) -> Result<ModalAnalysis, SolverError> {
         let masses = self.masses();
         let problem = self.problem(&masses);
         if let Some(a) = self.cache.load(&problem) {
@@ -196,7 +207,7 @@ pub struct ModalSolver {
     /// The drag revision the basis was last fitted to.
     drag_revision: Option<u64>,
     steps: u64,
-    pending: Option<Pending>,
+    pending: Option<Background<ModalAnalysis>>,
     generation: Generation,
 }
 
@@ -213,18 +224,8 @@ impl ModalSolver {
     /// Build from a scene, caching analyses in `cache`.
     pub fn with_cache(setup: &Setup, variant: Variant, cache: Cache) -> Result<Self, SolverError> {
         params::check_scene(params::specs(PARAMS), setup)?;
-        let m = &setup.scene.material;
         let s = &setup.scene.solver;
-        let request = Request {
-            cache,
-            mesh: Arc::new(setup.mesh.clone()),
-            anchors: Arc::new(setup.anchors.clone()),
-            area: Arc::new(setup.mesh.vertex_areas()),
-            density: m.density,
-            stiffness: ShellStiffness::from(m),
-            modes: s.modes,
-            keep_rigid: setup.anchors.is_empty() && !setup.tracks.is_empty(),
-        };
+        let request = Request::of(setup, cache);
         let method = variant.name();
         let analysis = request.run(&|_| {}).map_err(|e| named(e, method))?;
         let shape = variant.shape(&setup.mesh, &setup.anchors, &analysis.basis)?;
@@ -323,37 +324,26 @@ impl ModalSolver {
 
     /// Start recomputing the modes for the current parameters on a background thread.
     fn recompute(&mut self) {
-        let (tx, rx) = mpsc::channel();
-        let progress = Arc::new(AtomicU32::new(0));
-        let (request, p) = (self.request.clone(), progress.clone());
-        let ticket = self.generation.next();
-        // If the thread cannot start, `tx` goes with it and the next poll reports the analysis stopped.
-        let _ = std::thread::Builder::new().name("shellwarp-modes".into()).spawn(move || {
-            std::thread::sleep(SETTLE);
-            let report = move |f: f32| p.store(f.to_bits(), Ordering::Relaxed);
-            if let Some(result) = unless_superseded(&ticket, &report, |report| request.run(report)) {
-                let _ = tx.send(result);
-            }
-        });
-        self.pending = Some(Pending { receiver: rx, progress });
+        let request = self.request.clone();
+        let work = move |report: &dyn Fn(f32)| request.run(report);
+        self.pending = Some(Background::start("shellwarp-modes", "modal analysis", &self.generation, SETTLE, work));
     }
 
     /// Swap in a finished background basis, if any.
     fn poll_pending(&mut self) -> Result<(), SolverError> {
-        let Some(p) = &self.pending else { return Ok(()) };
-        match p.receiver.try_recv() {
-            Ok(result) => self.swap(result),
-            Err(TryRecvError::Empty) => Ok(()),
-            Err(TryRecvError::Disconnected) => self.swap(Err(stopped())),
+        match self.pending.as_ref().and_then(Background::ready) {
+            Some(result) => self.swap(result),
+            None => Ok(()),
         }
     }
 
     /// Block until a background recomputation (if any) has finished, and swap its basis in: for
     /// deterministic runs (tests, headless renders), where the swap must not depend on timing.
     pub fn wait_for_modes(&mut self) -> Result<(), SolverError> {
-        let Some(p) = &self.pending else { return Ok(()) };
-        let result = p.receiver.recv().unwrap_or_else(|_| Err(stopped()));
-        self.swap(result)
+        match self.pending.as_ref().map(Background::wait) {
+            Some(result) => self.swap(result),
+            None => Ok(()),
+        }
     }
 
     /// Carry the state over to a finished analysis (or report why it failed).
@@ -374,7 +364,7 @@ fn stopped() -> SolverError {
 }
 
 /// The modal analysis reports itself as method `modal`: name the method the user chose instead.
-fn named(e: SolverError, method: &'static str) -> SolverError {
+pub(crate) fn named(e: SolverError, method: &'static str) -> SolverError {
     match e {
         SolverError::Unsuitable { reason, .. } => SolverError::Unsuitable { method, reason },
         e => e,
@@ -458,10 +448,9 @@ impl Solver for ModalSolver {
     }
 
     fn progress(&self) -> Option<Progress> {
-        self.pending.as_ref().map(|p| Progress {
-            label: format!("computing {} modes", self.request.modes),
-            fraction: f32::from_bits(p.progress.load(Ordering::Relaxed)),
-        })
+        self.pending
+            .as_ref()
+            .map(|p| Progress { label: format!("computing {} modes", self.request.modes), fraction: p.fraction() })
     }
 
     fn poll(&mut self) -> Result<(), SolverError> {

@@ -175,15 +175,38 @@ impl RotationStrain {
         if due {
             self.rows_at = q.to_vec();
         }
+        self.solve_positions(q, positions, force);
+        if self.stiffness.is_none() {
+            self.stiffness = Some(self.load_stiffness(q, force));
+        }
+    }
+
+    /// Positions `x(q)` and the generalised force of the forces set last, alone: no drag rows and no
+    /// load stiffness (for methods that keep their own, `rds`).
+    pub fn reconstruct(&mut self, q: &[f64], positions: &mut [DVec3], force: &mut [f64]) {
+        self.pass.run(q, &self.loads, Some(self.laplacian.rhs_mut()), force, &mut []);
+        self.solve_positions(q, positions, force);
+    }
+
+    /// The generalised force `J(q)ᵀ f` of the per-vertex forces `f` (which become the forces set),
+    /// without positions: one adjoint solve and one pass. The load stiffness is left to be
+    /// recomputed by the next [`RotationStrain::update`].
+    pub fn force_of(&mut self, q: &[f64], forces: &[DVec3]) -> Vec<f64> {
+        self.set_forces(forces);
+        let mut g = vec![0.0; q.len()];
+        self.pass.run(q, &self.loads, None, &mut g, &mut []);
+        self.add_centroid_forces(&mut g);
+        g
+    }
+
+    /// Finish an update after the pass: the net loads' work on the centroids, and the positions.
+    fn solve_positions(&mut self, q: &[f64], positions: &mut [DVec3], force: &mut [f64]) {
         self.add_centroid_forces(force);
         let centroids: Vec<DVec3> =
             (self.centroid_modes.iter()).map(|modes| modes.iter().zip(q).map(|(c, qj)| *c * *qj).sum()).collect();
         self.laplacian.displacements(&centroids, &mut self.u);
         for ((x, rest), u) in positions.iter_mut().zip(&self.rest).zip(&self.u) {
             *x = *rest + *u;
-        }
-        if self.stiffness.is_none() {
-            self.stiffness = Some(self.load_stiffness(q, force));
         }
     }
 

@@ -1,0 +1,573 @@
+//! `rds` behind the [`Solver`] trait: backward Euler in the reduced coordinates, drags as stiff
+//! springs, the basis rebuilt in the background when the shell, the mode count or the derivative
+//! count changes.
+//!
+//! **A step.** With `c` the coordinates, `v` their velocities, the basis mass-orthonormal (the
+//! reduced mass is `I`, held constant as in `mwts-rs`), Rayleigh damping `D = αI + βK₀` (`K₀` the
+//! rest reduced stiffness) and `h` the step, `c⁺` minimises
+//! `½|c − c − hv|² + (h/2)(c⁺ − c)ᵀD(c⁺ − c) + h² Π(c⁺)`, where
+//! `Π(c) = E(x(c)) − fᵀx(c) + Σ_k ½ κ_k |a_k(c) − t_k|²`: the full shell energy, the external
+//! forces (gravity, point loads, wind held over the step) and the drags. Its stationary point is the
+//! backward Euler step `c⁺ − c − hv + hD(c⁺ − c) = −h² ∇Π(c⁺)`; Newton with a backtracking line
+//! search finds it (a few iterations a step; up to `solver.iterations`), and `v⁺ = (c⁺ − c)/h`.
+//!
+//! **Drags.** A position drag on vertex `i` is `a = x_i(c)`, with rows `J_i` of the Jacobian; an
+//! orientation drag is the vertex's rotation `Ψ_i c` (the mean of its triangles' rotation vectors,
+//! linear in `c` in the rotation-strain reconstruction), a frame drag the mean over a group (`A` its
+//! rows). Each is a spring `½ (a − t)ᵀ K_s (a − t)` whose 3 × 3 stiffness is the inverse of the
+//! compliance `damping · A h²(I + h²K₀)⁻¹ Aᵀ`: `damping` times the drag's own response to a step's
+//! force in the linear model (its static response where the shell is stiff, as in the modal
+//! methods), direction by direction, so a reachable target is met to about `damping` of what the
+//! linear shell would give, and an over-determined one settles at a compromise.
+
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+use nalgebra::{DMatrix, DVector};
+
+use super::basis::{self, ReducedBasis, default_derivatives};
+use super::energy::ReducedShell;
+use crate::scene::Setup;
+use crate::solver::modal::cache::Cache;
+use crate::solver::modal::method::{CONSTRAINT_DAMPING, MODES, Request, STEP, named};
+use crate::solver::params::shared::{DENSITY, GRAVITY_Y, K_AREA, K_BEND, K_LENGTH, RAYLEIGH_ALPHA, RAYLEIGH_BETA};
+use crate::solver::params::{self, Param, Redo};
+use crate::solver::supersede::{Background, Generation};
+use crate::solver::wind::Wind;
+use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
+use crate::solver::{Footprint, Method};
+
+/// Registry entry: the reduced nonlinear discrete shell.
+pub const RDS: Method = Method {
+    name: "rds",
+    summary: "reduced discrete shell: modes and modal derivatives through the rotation-strain reconstruction, \
+              the full shell energy, implicit steps (1/30 s)",
+    build: |setup| Ok(Box::new(Rds::new(setup)?)),
+    footprint: Footprint::MODAL,
+};
+
+/// The derivative directions kept beside the modes.
+const DERIVATIVES: ParamSpec = ParamSpec {
+    integer: true,
+    ..ParamSpec::linear(
+        "derivatives",
+        "derivatives",
+        "",
+        "Modal-derivative directions kept beside the modes after mass-PCA pruning (recomputed in the background).",
+        0.0,
+        1024.0,
+    )
+    .in_scene("solver.derivatives")
+};
+
+/// The parameters (the wind's follow them).
+const PARAMS: &[Param<Rds>] = &[
+    Param::new(K_AREA, |m| m.request.stiffness.k_area, |m, v| m.request.stiffness.k_area = v, Redo::Modes),
+    Param::new(K_LENGTH, |m| m.request.stiffness.k_length, |m, v| m.request.stiffness.k_length = v, Redo::Modes),
+    Param::new(K_BEND, |m| m.request.stiffness.k_bend, |m, v| m.request.stiffness.k_bend = v, Redo::Modes),
+    Param::new(DENSITY, |m| m.request.density, |m, v| m.request.density = v, Redo::Modes),
+    Param::new(GRAVITY_Y, |m| m.gravity.y, |m, v| m.gravity.y = v, Redo::Forces),
+    Param::new(RAYLEIGH_ALPHA, |m| m.settings.alpha, |m, v| m.settings.alpha = v, Redo::Nothing),
+    Param::new(RAYLEIGH_BETA, |m| m.settings.beta, |m, v| m.settings.beta = v, Redo::Nothing),
+    Param::new(MODES, |m| m.request.modes as f64, |m, v| m.request.modes = v as usize, Redo::Modes),
+    Param::new(DERIVATIVES, |m| m.derivatives as f64, |m, v| m.derivatives = v as usize, Redo::Modes),
+    Param::new(STEP, |m| m.settings.step, |m, v| m.settings.step = v, Redo::Nothing),
+    Param::new(
+        CONSTRAINT_DAMPING,
+        |m| m.settings.constraint_damping,
+        |m, v| m.settings.constraint_damping = v,
+        Redo::Nothing,
+    ),
+];
+
+/// The default relative compliance of drags: a hundred times tighter than the modal methods' 1e-2.
+/// The full energy stiffens under large pulls far beyond the linear response the compliance is
+/// measured against (a 0.27 m pull on the strip's tip missed by 6% at 1e-2, by 0.07% at 1e-4), and
+/// tracks are followed more closely (the strip's tip turned 180° by a track, 32 modes: 5.5% from
+/// `ds-static` at 1e-2, 3.3% at 1e-3).
+const DRAG_DAMPING: f64 = 1e-4;
+
+/// How long a background rebuild waits for further edits before it starts.
+const SETTLE: Duration = Duration::from_millis(200);
+
+/// The settings a step reads.
+#[derive(Debug, Clone, Copy)]
+struct Settings {
+    step: f64,
+    alpha: f64,
+    beta: f64,
+    constraint_damping: f64,
+    iterations: usize,
+}
+
+/// A basis with its reduced shell and rest stiffness.
+struct Built {
+    basis: ReducedBasis,
+    shell: ReducedShell,
+    /// The rest reduced stiffness `K₀ = Jᵀ K J` at `c = 0`.
+    rest: DMatrix<f64>,
+}
+
+impl Built {
+    /// The modes (cached), their derivatives, the reduced shell.
+    fn of(request: &Request, derivatives: usize, progress: &dyn Fn(f32)) -> Result<Self, SolverError> {
+        let analysis = request.run(&|f| progress(0.5 * f))?;
+        let masses = request.masses();
+        let problem = request.problem(&masses);
+        let basis = basis::build(&problem, &analysis, derivatives, &|f| progress(0.5 + 0.45 * f))?;
+        let mut shell = ReducedShell::new(&request.mesh, &request.anchors, request.stiffness, &basis)?;
+        let zero = vec![0.0; basis.len()];
+        let j = shell.jacobian(&zero);
+        let rest = shell.projected_hessian(request.mesh.positions(), &j);
+        progress(1.0);
+        Ok(Self { basis, shell, rest })
+    }
+}
+
+/// The reduced discrete shell.
+pub struct Rds {
+    request: Request,
+    derivatives: usize,
+    built: Built,
+    settings: Settings,
+    loads: Vec<DVec3>,
+    gravity: DVec3,
+    wind: Wind,
+    c: Vec<f64>,
+    v: Vec<f64>,
+    positions: Vec<DVec3>,
+    previous: Vec<DVec3>,
+    drags: DragSet,
+    steps: u64,
+    pending: Option<Background<Built>>,
+    generation: Generation,
+}
+
+impl Rds {
+    /// Build from a scene (computing or loading the modes synchronously), caching the modes in the
+    /// default location.
+    pub fn new(setup: &Setup) -> Result<Self, SolverError> {
+        params::check_scene(params::specs(PARAMS), setup)?;
+        if setup.anchors.is_empty() {
+            return Err(SolverError::Unsuitable {
+                method: RDS.name,
+                reason:
+                    "it needs anchors: the modal derivatives solve with the rest stiffness, singular for a free shell"
+                        .into(),
+            });
+        }
+        let s = &setup.scene.solver;
+        let request = Request::of(setup, Cache::from_env());
+        // In range: checked above.
+        let derivatives = s.derivatives.map_or_else(|| default_derivatives(s.modes), |d| d.max(0) as usize);
+        let built = Built::of(&request, derivatives, &|_| {}).map_err(|e| named(e, RDS.name))?;
+        let r = built.basis.len();
+        Ok(Self {
+            request,
+            derivatives,
+            built,
+            settings: Settings {
+                step: s.step.unwrap_or(1.0 / 30.0),
+                alpha: s.rayleigh_alpha,
+                beta: s.rayleigh_beta,
+                constraint_damping: s.constraint_damping.unwrap_or(DRAG_DAMPING),
+                iterations: s.iterations.clamp(1, 50),
+            },
+            loads: setup.loads.clone(),
+            gravity: setup.gravity(),
+            wind: Wind::of(setup)?,
+            c: vec![0.0; r],
+            v: vec![0.0; r],
+            positions: setup.mesh.positions().to_vec(),
+            previous: setup.mesh.positions().to_vec(),
+            drags: DragSet::new(setup.mesh.vertex_count(), true),
+            steps: 0,
+            pending: None,
+            generation: Generation::default(),
+        })
+    }
+
+    /// The basis in use.
+    pub fn basis(&self) -> &ReducedBasis {
+        &self.built.basis
+    }
+
+    /// The external forces of the coming step: gravity, point loads and the wind on the shell as the
+    /// last step left it, N.
+    fn forces(&self) -> Vec<DVec3> {
+        let masses = self.request.masses();
+        let base: Vec<DVec3> = masses.iter().zip(&self.loads).map(|(m, l)| self.gravity * *m + *l).collect();
+        if self.wind.is_calm() {
+            return base;
+        }
+        let h = self.settings.step;
+        let v: Vec<DVec3> = self.positions.iter().zip(&self.previous).map(|(a, b)| (*a - *b) / h).collect();
+        self.wind.forces(self.steps as f64 * h, (&self.positions, &v), self.request.mesh.triangles(), &base)
+    }
+
+    /// The drags as springs: (rows `A` (3 × r, for position drags `None`: the Jacobian's rows at the
+    /// vertex), vertex, target, stiffness κ).
+    fn springs(&self) -> Vec<Spring> {
+        let modal = &self.built.shell.modal;
+        let r = self.c.len();
+        let rotation = |v: usize| DMatrix::from_fn(3, r, |a, k| modal.psi(v, a, k));
+        if self.drags.is_empty() && self.drags.frames().next().is_none() {
+            return Vec::new();
+        }
+        // The step's response to a reduced force, h² (I + h²K₀)⁻¹: the static compliance K₀⁻¹ in
+        // stiff directions, h² in a mechanism's (a shell free to swing about its anchored row).
+        let h = self.settings.step;
+        let step = DMatrix::identity(r, r) + &self.built.rest * (h * h);
+        let response = match step.cholesky() {
+            Some(c) => c.inverse() * (h * h),
+            None => DMatrix::identity(r, r) * (h * h),
+        };
+        let damping = self.settings.constraint_damping;
+        let compliance = |a: &DMatrix<f64>| stiffness_of(&(a * &response * a.transpose() * damping));
+        let mut springs = Vec::new();
+        for (_, d) in self.drags.iter() {
+            match d.kind {
+                DragKind::Position(p) => {
+                    let rows = DMatrix::from_fn(3, r, |a, k| modal.phi(d.vertex, a, k));
+                    springs.push(Spring::Position { vertex: d.vertex, target: p, stiffness: compliance(&rows) });
+                }
+                DragKind::Orientation(w) => {
+                    let rows = rotation(d.vertex);
+                    springs.push(Spring::Rotation { stiffness: compliance(&rows), rows, target: w });
+                }
+            }
+        }
+        for (_, f) in self.drags.frames() {
+            let mut rows = DMatrix::zeros(3, r);
+            f.vertices.iter().for_each(|&v| rows += rotation(v));
+            rows /= f.vertices.len() as f64;
+            springs.push(Spring::Rotation { stiffness: compliance(&rows), rows, target: f.rotation });
+        }
+        springs
+    }
+
+    /// The step's objective at `c` (module documentation), with the positions it leaves in `x`.
+    fn objective(&mut self, s: &Step, c: &DVector<f64>, x: &mut [DVec3]) -> f64 {
+        self.built.shell.positions(c.as_slice(), x);
+        let rest = self.request.mesh.positions();
+        let work: f64 = x.iter().zip(rest).zip(&s.forces).map(|((x, x0), f)| (*x - *x0).dot(*f)).sum();
+        let springs: f64 = s.springs.iter().map(|k| k.energy(c, x)).sum();
+        let (dy, dc) = (c - &s.predicted, c - &s.start);
+        let h = self.settings.step;
+        0.5 * dy.norm_squared()
+            + 0.5 * h * dc.dot(&(&s.damping * &dc))
+            + h * h * (self.built.shell.energy(x) - work + springs)
+    }
+
+    /// One backward Euler step by Newton's method; returns (iterations, converged).
+    fn solve(&mut self, s: &Step) -> Result<(u32, bool), SolverError> {
+        let h = self.settings.step;
+        let r = self.c.len();
+        let n = self.positions.len();
+        let mut c = s.predicted.clone();
+        let mut x = self.positions.clone();
+        let mut trial = x.clone();
+        let mut gradient = vec![DVec3::ZERO; n];
+        let inertia = DMatrix::identity(r, r) + &s.damping * h;
+        let mut value = self.objective(s, &c, &mut x);
+        if !value.is_finite() {
+            let time = (self.steps + 1) as f64 * h;
+            let reason = "the step's energy is not finite".to_string();
+            return Err(SolverError::Diverged { step: self.steps + 1, time, reason });
+        }
+        // The stiffness (the Jacobian, the projected Hessian and the load stiffness) is kept from
+        // one iteration to the next while full steps are taken: the force is exact at every
+        // iteration, so a stale stiffness changes how fast the iteration converges, not where.
+        let mut kept: Option<(DMatrix<f64>, DMatrix<f64>)> = None;
+        for iteration in 1..=self.settings.iterations as u32 {
+            self.built.shell.gradient(&x, &mut gradient);
+            let mut force: Vec<DVec3> = s.forces.iter().zip(&gradient).map(|(f, g)| *f - *g).collect();
+            s.springs.iter().for_each(|k| k.add_force(&x, &mut force));
+            let (pulled, (j, elastic)) = match kept.take() {
+                Some(kept) => (self.built.shell.force(c.as_slice(), &force), kept),
+                None => {
+                    let (pulled, load) = self.built.shell.pull_back(c.as_slice(), &force);
+                    let j = self.built.shell.jacobian(c.as_slice());
+                    let elastic = self.built.shell.projected_hessian(&x, &j) - load;
+                    (pulled, (j, elastic))
+                }
+            };
+            let mut stiffness = elastic.clone();
+            let mut g = -pulled;
+            for k in &s.springs {
+                k.add_stiffness(&self.built.shell, &j, &c, &mut g, &mut stiffness);
+            }
+            let grad = (&c - &s.predicted) + &s.damping * (&c - &s.start) * h + g * (h * h);
+            let system = &inertia + stiffness * (h * h);
+            let system = (&system + system.transpose()) * 0.5;
+            let dc = descent(&system, &grad)?;
+            let slope = grad.dot(&dc);
+            let mut step = 1.0;
+            let accepted = loop {
+                let candidate = &c + &dc * step;
+                let next = self.objective(s, &candidate, &mut trial);
+                if next.is_finite() && next <= value + 1e-4 * step * slope.min(0.0) {
+                    value = next;
+                    break Some(candidate);
+                }
+                step *= 0.5;
+                if step < 1e-6 {
+                    break None;
+                }
+            };
+            let Some(next) = accepted else {
+                // No decrease left at round-off: the stationary point.
+                self.finish(&c, &x, s);
+                return Ok((iteration, true));
+            };
+            let moved = (&next - &c).norm();
+            if step == 1.0 && iteration % 4 != 0 {
+                kept = Some((j, elastic));
+            }
+            c = next;
+            std::mem::swap(&mut x, &mut trial);
+            if moved <= 1e-10 * (c.norm() + (&c - &s.start).norm()) + 1e-300 {
+                self.finish(&c, &x, s);
+                return Ok((iteration, true));
+            }
+        }
+        self.finish(&c, &x, s);
+        Ok((self.settings.iterations as u32, false))
+    }
+
+    fn finish(&mut self, c: &DVector<f64>, x: &[DVec3], s: &Step) {
+        let h = self.settings.step;
+        self.v = ((c - &s.start) / h).as_slice().to_vec();
+        self.c = c.as_slice().to_vec();
+        self.previous.copy_from_slice(&self.positions);
+        self.positions.copy_from_slice(x);
+    }
+
+    fn recompute(&mut self) {
+        let (request, derivatives) = (self.request.clone(), self.derivatives);
+        let work = move |report: &dyn Fn(f32)| Built::of(&request, derivatives, report);
+        self.pending = Some(Background::start("shellwarp-rds-basis", "basis", &self.generation, SETTLE, work));
+    }
+
+    fn poll_pending(&mut self) -> Result<(), SolverError> {
+        match self.pending.as_ref().and_then(Background::ready) {
+            Some(result) => self.swap(result),
+            None => Ok(()),
+        }
+    }
+
+    /// Block until a background rebuild (if any) has finished and swap it in (deterministic runs).
+    pub fn wait_for_basis(&mut self) -> Result<(), SolverError> {
+        match self.pending.as_ref().map(Background::wait) {
+            Some(result) => self.swap(result),
+            None => Ok(()),
+        }
+    }
+
+    /// Carry the state over to a new basis: the coordinates whose positions (and velocities) are
+    /// closest to the current ones in the mass norm.
+    fn swap(&mut self, result: Result<Built, SolverError>) -> Result<(), SolverError> {
+        self.pending = None;
+        let mut built = result.map_err(|e| named(e, RDS.name))?;
+        let masses = self.request.masses();
+        let rest = self.request.mesh.positions();
+        let h = self.settings.step;
+        let start: Vec<f64> = (built.basis.shapes.iter())
+            .map(|s| s.iter().enumerate().map(|(v, b)| masses[v] * b.dot(self.positions[v] - rest[v])).sum())
+            .collect();
+        let velocity: Vec<DVec3> = self.positions.iter().zip(&self.previous).map(|(a, b)| (*a - *b) / h).collect();
+        (self.c, self.v) = built.shell.fit(&masses, &self.positions, &velocity, start);
+        self.built = built;
+        self.built.shell.positions(&self.c, &mut self.positions);
+        self.previous.copy_from_slice(&self.positions);
+        Ok(())
+    }
+}
+
+/// What a step holds fixed.
+struct Step {
+    start: DVector<f64>,
+    predicted: DVector<f64>,
+    damping: DMatrix<f64>,
+    forces: Vec<DVec3>,
+    springs: Vec<Spring>,
+}
+
+/// A drag as a spring (module documentation), its stiffness a 3 × 3 matrix.
+enum Spring {
+    /// Vertex `vertex` pulled to `target`.
+    Position { vertex: usize, target: DVec3, stiffness: DMatrix<f64> },
+    /// A rotation `rows · c` pulled to `target`.
+    Rotation { rows: DMatrix<f64>, target: DVec3, stiffness: DMatrix<f64> },
+}
+
+/// The spring stiffness `C⁺` of a compliance `C` (symmetric 3 × 3): directions the drag cannot move
+/// (an anchored vertex's) get none.
+fn stiffness_of(c: &DMatrix<f64>) -> DMatrix<f64> {
+    let eigen = nalgebra::SymmetricEigen::new((c + c.transpose()) * 0.5);
+    let largest = eigen.eigenvalues.iter().copied().fold(0.0, f64::max);
+    let mut k = DMatrix::zeros(3, 3);
+    for (i, mu) in eigen.eigenvalues.iter().enumerate() {
+        if *mu > 1e-12 * largest {
+            let v = eigen.eigenvectors.column(i);
+            k += v * v.transpose() / *mu;
+        }
+    }
+    k
+}
+
+fn column(v: DVec3) -> DVector<f64> {
+    DVector::from_column_slice(&v.to_array())
+}
+
+impl Spring {
+    fn energy(&self, c: &DVector<f64>, x: &[DVec3]) -> f64 {
+        let gap = match self {
+            Spring::Position { vertex, target, .. } => column(x[*vertex] - *target),
+            Spring::Rotation { rows, target, .. } => rows * c - column(*target),
+        };
+        let (Spring::Position { stiffness, .. } | Spring::Rotation { stiffness, .. }) = self;
+        0.5 * gap.dot(&(stiffness * &gap))
+    }
+
+    /// A position spring's force on its vertex, added to `force`.
+    fn add_force(&self, x: &[DVec3], force: &mut [DVec3]) {
+        if let Spring::Position { vertex, target, stiffness } = self {
+            let f = stiffness * column(x[*vertex] - *target);
+            force[*vertex] -= DVec3::new(f[0], f[1], f[2]);
+        }
+    }
+
+    /// A spring's stiffness (and a rotation spring's gradient, which acts on `c` directly) added to
+    /// the reduced gradient and stiffness.
+    fn add_stiffness(
+        &self,
+        shell: &ReducedShell,
+        j: &DMatrix<f64>,
+        c: &DVector<f64>,
+        gradient: &mut DVector<f64>,
+        stiffness: &mut DMatrix<f64>,
+    ) {
+        match self {
+            Spring::Position { vertex, stiffness: k, .. } => {
+                let rows = shell.rows(j, *vertex);
+                *stiffness += rows.transpose() * k * rows;
+            }
+            Spring::Rotation { rows, target, stiffness: k } => {
+                *gradient += rows.transpose() * (k * (rows * c - column(*target)));
+                *stiffness += rows.transpose() * k * rows;
+            }
+        }
+    }
+}
+
+/// `−S⁻¹ g` for the symmetric step matrix `S`, shifted towards positive definite if it is not.
+fn descent(system: &DMatrix<f64>, grad: &DVector<f64>) -> Result<DVector<f64>, SolverError> {
+    let scale = system.diagonal().abs().max().max(f64::MIN_POSITIVE);
+    let mut shift = 0.0;
+    for _ in 0..40 {
+        let shifted = system + DMatrix::identity(system.nrows(), system.ncols()) * shift;
+        if let Some(c) = shifted.cholesky() {
+            return Ok(-c.solve(grad));
+        }
+        shift = if shift == 0.0 { 1e-8 * scale } else { shift * 10.0 };
+    }
+    Err(SolverError::Numerical("the reduced step matrix is not finite".into()))
+}
+
+impl Solver for Rds {
+    fn method(&self) -> &'static str {
+        RDS.name
+    }
+
+    fn time_step(&self) -> f64 {
+        self.settings.step
+    }
+
+    fn step(&mut self) -> Result<StepStats, SolverError> {
+        let wall = Instant::now();
+        self.poll_pending()?;
+        let h = self.settings.step;
+        let r = self.c.len();
+        let start = DVector::from_column_slice(&self.c);
+        let velocity = DVector::from_column_slice(&self.v);
+        let damping = DMatrix::identity(r, r) * self.settings.alpha + &self.built.rest * self.settings.beta;
+        let step =
+            Step { predicted: &start + &velocity * h, start, damping, forces: self.forces(), springs: self.springs() };
+        let (iterations, converged) = self.solve(&step)?;
+        self.steps += 1;
+        let time = self.steps as f64 * h;
+        if !self.c.iter().chain(&self.v).all(|x| x.is_finite()) {
+            let reason = "the reduced coordinates are not finite".to_string();
+            return Err(SolverError::Diverged { step: self.steps, time, reason });
+        }
+        let kinetic = 0.5 * self.v.iter().map(|v| v * v).sum::<f64>();
+        let energy = self.built.shell.energy(&self.positions) + kinetic;
+        let largest = self.built.basis.stiffness.iter().copied().fold(1.0, f64::max);
+        check_finite(self.steps, time, &[], energy, 1e12 * largest)?;
+        Ok(StepStats {
+            wall_seconds: wall.elapsed().as_secs_f64(),
+            sim_time: time,
+            energy,
+            iterations,
+            converged,
+            ..StepStats::default()
+        })
+    }
+
+    fn positions(&self) -> &[DVec3] {
+        &self.positions
+    }
+
+    fn reset(&mut self) {
+        self.c.iter_mut().chain(self.v.iter_mut()).for_each(|x| *x = 0.0);
+        self.positions.copy_from_slice(self.request.mesh.positions());
+        self.previous.copy_from_slice(&self.positions);
+        self.steps = 0;
+    }
+
+    fn params(&self) -> Vec<ParamValue> {
+        [params::values(PARAMS, self), self.wind.params()].concat()
+    }
+
+    fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
+        if self.wind.set_param(name, value)? {
+            return Ok(());
+        }
+        match params::set(PARAMS, self, name, value)? {
+            Redo::Nothing | Redo::Forces => {}
+            Redo::Modes => self.recompute(),
+        }
+        Ok(())
+    }
+
+    fn drags(&self) -> &DragSet {
+        &self.drags
+    }
+
+    fn drags_mut(&mut self) -> &mut DragSet {
+        &mut self.drags
+    }
+
+    fn progress(&self) -> Option<Progress> {
+        self.pending.as_ref().map(|p| Progress {
+            label: format!("computing {} modes and {} derivatives", self.request.modes, self.derivatives),
+            fraction: p.fraction(),
+        })
+    }
+
+    fn poll(&mut self) -> Result<(), SolverError> {
+        self.poll_pending()
+    }
+
+    fn info(&self) -> Vec<(&'static str, f64)> {
+        let b = &self.built.basis;
+        vec![("active modes", b.modes as f64), ("derivative directions", (b.len() - b.modes) as f64)]
+    }
+}
+
+impl Drop for Rds {
+    fn drop(&mut self) {
+        self.generation.cancel_all();
+    }
+}

@@ -1,0 +1,22 @@
+//! `rds`, the reduced discrete shell: the full nonlinear discrete-shell energy of Grinspun et al.
+//! (2003), restricted to a few coordinates `c` that move the shell through the rotation-strain
+//! reconstruction of `mwts-rs` (Huang et al. 2011; Pan, Bao & Huang 2015).
+//!
+//! - **Kinematics** ([`energy`]): `x(c)` is the least-squares fit of edge vectors to per-triangle
+//!   targets `exp([W_t c]×)(I + E_t c)(X_j − X_i)`, so rows of the shell turn by any angle.
+//! - **Basis** ([`basis`]): the `m` lowest modes and their modal derivatives (Barbič & James 2005)
+//!   less the reconstruction's own second order, pruned by mass-PCA; the modes' span is kept
+//!   exactly.
+//! - **Energy**: `E(x(c))` over every element, its force by the reconstruction's adjoint.
+//! - **Dynamics** ([`method`]): backward Euler at 1/30 s by Newton in `c`; drags as stiff springs.
+//!
+//! Why the correction: the full energy on the reconstruction of the modes alone locks (the fit leaves
+//! small membrane strains that a membrane 10⁴ times stiffer than bending punishes), and the
+//! displacement-space derivatives added as they are carry the rotations' second order a second time;
+//! `ψ_ij − χ_ij` adds only what the reconstruction lacks (measured in BENCHMARKS.md).
+
+pub mod basis;
+pub mod energy;
+pub mod method;
+
+pub use method::{RDS, Rds};
