@@ -28,8 +28,10 @@ use nalgebra::{DMatrix, DVector};
 use super::basis::{self, ReducedBasis, default_derivatives};
 use super::energy::ReducedShell;
 use crate::scene::Setup;
+use crate::solver::modal::basis::ModalBasis;
 use crate::solver::modal::cache::Cache;
 use crate::solver::modal::method::{CONSTRAINT_DAMPING, MODES, Request, STEP, named};
+use crate::solver::modal::ritz::{self, StaticResponse};
 use crate::solver::params::shared::{DENSITY, GRAVITY_Y, K_AREA, K_BEND, K_LENGTH, RAYLEIGH_ALPHA, RAYLEIGH_BETA};
 use crate::solver::params::{self, Param, Redo};
 use crate::solver::supersede::{Background, Generation};
@@ -102,6 +104,9 @@ struct Settings {
 
 /// A basis with its reduced shell and rest stiffness.
 struct Built {
+    /// The modes and their derivative directions.
+    base: ReducedBasis,
+    /// The basis in use: `base`, and while position drags last the static responses to them.
     basis: ReducedBasis,
     shell: ReducedShell,
     /// The rest reduced stiffness `K₀ = Jᵀ K J` at `c = 0`.
@@ -114,13 +119,19 @@ impl Built {
         let analysis = request.run(&|f| progress(0.5 * f))?;
         let masses = request.masses();
         let problem = request.problem(&masses);
-        let basis = basis::build(&problem, &analysis, derivatives, &|f| progress(0.5 + 0.45 * f))?;
+        let base = basis::build(&problem, &analysis, derivatives, &|f| progress(0.5 + 0.45 * f))?;
+        let built = Self::with(request, base.clone(), base)?;
+        progress(1.0);
+        Ok(built)
+    }
+
+    /// The reduced shell of `basis` (`base` with any drag responses).
+    fn with(request: &Request, base: ReducedBasis, basis: ReducedBasis) -> Result<Self, SolverError> {
         let mut shell = ReducedShell::new(&request.mesh, &request.anchors, request.stiffness, &basis)?;
         let zero = vec![0.0; basis.len()];
         let j = shell.jacobian(&zero);
         let rest = shell.projected_hessian(request.mesh.positions(), &j);
-        progress(1.0);
-        Ok(Self { basis, shell, rest })
+        Ok(Self { base, basis, shell, rest })
     }
 }
 
@@ -141,6 +152,12 @@ pub struct Rds {
     steps: u64,
     pending: Option<Background<Built>>,
     generation: Generation,
+    /// The shell's factored stiffness for the drags' static responses (built at the first drag).
+    response: Option<StaticResponse>,
+    /// The groups of dragged vertices whose responses are in the basis, and the drag revision the
+    /// basis was last fitted to.
+    groups: Vec<Vec<usize>>,
+    drag_revision: Option<u64>,
 }
 
 impl Rds {
@@ -184,6 +201,9 @@ impl Rds {
             steps: 0,
             pending: None,
             generation: Generation::default(),
+            response: None,
+            groups: Vec::new(),
+            drag_revision: None,
         })
     }
 
@@ -364,11 +384,61 @@ impl Rds {
         }
     }
 
-    /// Carry the state over to a new basis: the coordinates whose positions (and velocities) are
-    /// closest to the current ones in the mass norm.
+    /// Swap in a basis rebuilt in the background; the drags' responses are refitted to it at the
+    /// next step.
     fn swap(&mut self, result: Result<Built, SolverError>) -> Result<(), SolverError> {
         self.pending = None;
-        let mut built = result.map_err(|e| named(e, RDS.name))?;
+        let built = result.map_err(|e| named(e, RDS.name))?;
+        (self.response, self.groups, self.drag_revision) = (None, Vec::new(), None);
+        self.carry(built);
+        Ok(())
+    }
+
+    /// Fit the basis to the position drags, as the modal methods do ([`ritz`]): the static
+    /// responses to forces at the dragged vertices join it while they are dragged, so a local pull
+    /// is followed by the shell's own local deformation rather than by large amplitudes of global
+    /// modes.
+    fn follow_drags(&mut self) -> Result<(), SolverError> {
+        if self.drag_revision == Some(self.drags.revision()) {
+            return Ok(());
+        }
+        self.drag_revision = Some(self.drags.revision());
+        let mut dragged: Vec<usize> = Vec::new();
+        for (_, d) in self.drags.iter() {
+            if matches!(d.kind, DragKind::Position(_)) && !dragged.contains(&d.vertex) {
+                dragged.push(d.vertex);
+            }
+        }
+        let groups = ritz::groups(&dragged);
+        if groups == self.groups {
+            return Ok(());
+        }
+        let base = self.built.base.clone();
+        let basis = if groups.is_empty() {
+            base.clone()
+        } else {
+            if self.response.is_none() {
+                let masses = self.request.masses();
+                self.response = Some(StaticResponse::new(&self.request.problem(&masses))?);
+            }
+            let mesh = &self.request.mesh;
+            let modal = ModalBasis::new(mesh, base.stiffness.clone(), &base.shapes);
+            let augmented = match &self.response {
+                Some(response) => response.augment(&modal, mesh, &groups)?,
+                None => modal,
+            };
+            let shapes = (0..augmented.modes()).map(|j| augmented.shape(j)).collect();
+            ReducedBasis { modes: base.modes, stiffness: augmented.eigenvalues.clone(), shapes }
+        };
+        let built = Built::with(&self.request, base, basis)?;
+        self.carry(built);
+        self.groups = groups;
+        Ok(())
+    }
+
+    /// Carry the state over to a new basis: the coordinates whose positions (and velocities) are
+    /// closest to the current ones in the mass norm.
+    fn carry(&mut self, mut built: Built) {
         let masses = self.request.masses();
         let rest = self.request.mesh.positions();
         let h = self.settings.step;
@@ -380,7 +450,6 @@ impl Rds {
         self.built = built;
         self.built.shell.positions(&self.c, &mut self.positions);
         self.previous.copy_from_slice(&self.positions);
-        Ok(())
     }
 }
 
@@ -487,6 +556,7 @@ impl Solver for Rds {
     fn step(&mut self) -> Result<StepStats, SolverError> {
         let wall = Instant::now();
         self.poll_pending()?;
+        self.follow_drags()?;
         let h = self.settings.step;
         let r = self.c.len();
         let start = DVector::from_column_slice(&self.c);
