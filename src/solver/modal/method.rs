@@ -25,7 +25,7 @@ use crate::solver::params::shared::{DENSITY, GRAVITY_Y, K_AREA, K_BEND, K_LENGTH
 use crate::solver::params::{self, Param, Redo};
 use crate::solver::supersede::{Background, Generation};
 use crate::solver::wind::Wind;
-use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
+use crate::solver::{DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
 use crate::solver::{Footprint, Method};
 
 /// Registry entry: linear modal analysis.
@@ -297,13 +297,7 @@ impl ModalSolver {
             return Ok(());
         }
         self.drag_revision = Some(self.drags.revision());
-        let mut dragged: Vec<usize> = Vec::new();
-        for (_, d) in self.drags.iter() {
-            if matches!(d.kind, DragKind::Position(_)) && !dragged.contains(&d.vertex) {
-                dragged.push(d.vertex);
-            }
-        }
-        let groups = ritz::groups(&dragged);
+        let groups = ritz::dragged_groups(&self.drags);
         if groups == self.groups {
             return Ok(());
         }

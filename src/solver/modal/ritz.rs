@@ -19,7 +19,7 @@ use nalgebra::{DMatrix, SymmetricEigen};
 use super::basis::ModalBasis;
 use super::compute::{Factored, ModalProblem, factored};
 use crate::mesh::TriMesh;
-use crate::solver::SolverError;
+use crate::solver::{DragKind, DragSet, SolverError};
 
 /// The most groups of dragged vertices that get responses (three vectors each); past this many
 /// dragged vertices, consecutive ones share a group (a track's selection is listed together).
@@ -44,6 +44,17 @@ impl std::fmt::Debug for StaticResponse {
 pub fn groups(dragged: &[usize]) -> Vec<Vec<usize>> {
     let size = dragged.len().div_ceil(MAX_GROUPS).max(1);
     dragged.chunks(size).map(<[usize]>::to_vec).collect()
+}
+
+/// The groups ([`groups`]) of the vertices under position drags in `drags`, each once, in order.
+pub fn dragged_groups(drags: &DragSet) -> Vec<Vec<usize>> {
+    let mut dragged: Vec<usize> = Vec::new();
+    for (_, d) in drags.iter() {
+        if matches!(d.kind, DragKind::Position(_)) && !dragged.contains(&d.vertex) {
+            dragged.push(d.vertex);
+        }
+    }
+    groups(&dragged)
 }
 
 impl StaticResponse {

@@ -403,13 +403,7 @@ impl Rds {
             return Ok(());
         }
         self.drag_revision = Some(self.drags.revision());
-        let mut dragged: Vec<usize> = Vec::new();
-        for (_, d) in self.drags.iter() {
-            if matches!(d.kind, DragKind::Position(_)) && !dragged.contains(&d.vertex) {
-                dragged.push(d.vertex);
-            }
-        }
-        let groups = ritz::groups(&dragged);
+        let groups = ritz::dragged_groups(&self.drags);
         if groups == self.groups {
             return Ok(());
         }
