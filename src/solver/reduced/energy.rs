@@ -6,7 +6,7 @@
 //! caller adds), the generalised force is `Jᵀ r`: the reconstruction's adjoint
 //! ([`RotationStrain::set_forces`]), exact. The stiffness of `Π(c) = E(x(c)) − (work of r held
 //! fixed)` is `Jᵀ ∇²E J − ∂(J(c)ᵀ r)/∂c` with `r` frozen: the first term from the exact Hessian
-//! assembled at `x(c)` and `J`'s columns by central differences of the reconstruction (a step of
+//! assembled at `x(c)` and `J`'s columns by forward differences of the reconstruction (a step of
 //! 1e-6 of each vector's largest displacement), the second the reconstruction's load stiffness
 //! (forward differences of the force pass). Both are approximations to about 1e-6; the force is
 //! exact, so a Newton iteration on them still converges to the exact stationary point.
@@ -95,23 +95,24 @@ impl ReducedShell {
         self.shell.gradient(x, out)
     }
 
-    /// The columns of `J = ∂x/∂c` at `c`, over the free DOFs (central differences).
+    /// The columns of `J = ∂x/∂c` at `c`, over the free DOFs (forward differences: one
+    /// reconstruction a coordinate; an error of about the step, 1e-6, relative, which only the
+    /// stiffness sees).
     pub fn jacobian(&mut self, c: &[f64]) -> DMatrix<f64> {
         let r = self.dim();
         let mut j = DMatrix::zeros(self.dofs.dofs(), r);
-        let (mut plus, mut minus) = (self.rest.clone(), self.rest.clone());
+        let (mut at, mut moved) = (self.rest.clone(), self.rest.clone());
+        self.rs.reconstruct(c, &mut at, &mut self.force);
         let (mut a, mut b) = (vec![0.0; self.dofs.dofs()], vec![0.0; self.dofs.dofs()]);
+        self.dofs.gather(&at, &mut b);
         let mut shifted = c.to_vec();
         for k in 0..r {
             let s = JACOBIAN_STEP / self.scales[k];
             shifted[k] = c[k] + s;
-            self.rs.reconstruct(&shifted, &mut plus, &mut self.force);
-            shifted[k] = c[k] - s;
-            self.rs.reconstruct(&shifted, &mut minus, &mut self.force);
+            self.rs.reconstruct(&shifted, &mut moved, &mut self.force);
             shifted[k] = c[k];
-            self.dofs.gather(&plus, &mut a);
-            self.dofs.gather(&minus, &mut b);
-            j.column_mut(k).iter_mut().zip(a.iter().zip(&b)).for_each(|(o, (p, m))| *o = (p - m) / (2.0 * s));
+            self.dofs.gather(&moved, &mut a);
+            j.column_mut(k).iter_mut().zip(a.iter().zip(&b)).for_each(|(o, (p, m))| *o = (p - m) / s);
         }
         j
     }

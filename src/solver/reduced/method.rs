@@ -11,14 +11,8 @@
 //! backward Euler step `c⁺ − c − hv + hD(c⁺ − c) = −h² ∇Π(c⁺)`; Newton with a backtracking line
 //! search finds it (a few iterations a step; up to `solver.iterations`), and `v⁺ = (c⁺ − c)/h`.
 //!
-//! **Drags.** A position drag on vertex `i` is `a = x_i(c)`, with rows `J_i` of the Jacobian; an
-//! orientation drag is the vertex's rotation `Ψ_i c` (the mean of its triangles' rotation vectors,
-//! linear in `c` in the rotation-strain reconstruction), a frame drag the mean over a group (`A` its
-//! rows). Each is a spring `½ (a − t)ᵀ K_s (a − t)` whose 3 × 3 stiffness is the inverse of the
-//! compliance `damping · A h²(I + h²K₀)⁻¹ Aᵀ`: `damping` times the drag's own response to a step's
-//! force in the linear model (its static response where the shell is stiff, as in the modal
-//! methods), direction by direction, so a reachable target is met to about `damping` of what the
-//! linear shell would give, and an over-determined one settles at a compromise.
+//! **Drags** are stiff springs ([`super::springs`]); while position drags last, the static responses
+//! to the dragged vertices join the basis, as in the modal methods.
 
 use std::time::{Duration, Instant};
 
@@ -27,6 +21,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::basis::{self, ReducedBasis, default_derivatives};
 use super::energy::ReducedShell;
+use super::springs::{Spring, springs};
 use crate::scene::Setup;
 use crate::solver::modal::basis::ModalBasis;
 use crate::solver::modal::cache::Cache;
@@ -36,7 +31,7 @@ use crate::solver::params::shared::{DENSITY, GRAVITY_Y, K_AREA, K_BEND, K_LENGTH
 use crate::solver::params::{self, Param, Redo};
 use crate::solver::supersede::{Background, Generation};
 use crate::solver::wind::Wind;
-use crate::solver::{DragKind, DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
+use crate::solver::{DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
 use crate::solver::{Footprint, Method};
 
 /// Registry entry: the reduced nonlinear discrete shell.
@@ -223,47 +218,6 @@ impl Rds {
         let h = self.settings.step;
         let v: Vec<DVec3> = self.positions.iter().zip(&self.previous).map(|(a, b)| (*a - *b) / h).collect();
         self.wind.forces(self.steps as f64 * h, (&self.positions, &v), self.request.mesh.triangles(), &base)
-    }
-
-    /// The drags as springs: (rows `A` (3 × r, for position drags `None`: the Jacobian's rows at the
-    /// vertex), vertex, target, stiffness κ).
-    fn springs(&self) -> Vec<Spring> {
-        let modal = &self.built.shell.modal;
-        let r = self.c.len();
-        let rotation = |v: usize| DMatrix::from_fn(3, r, |a, k| modal.psi(v, a, k));
-        if self.drags.is_empty() && self.drags.frames().next().is_none() {
-            return Vec::new();
-        }
-        // The step's response to a reduced force, h² (I + h²K₀)⁻¹: the static compliance K₀⁻¹ in
-        // stiff directions, h² in a mechanism's (a shell free to swing about its anchored row).
-        let h = self.settings.step;
-        let step = DMatrix::identity(r, r) + &self.built.rest * (h * h);
-        let response = match step.cholesky() {
-            Some(c) => c.inverse() * (h * h),
-            None => DMatrix::identity(r, r) * (h * h),
-        };
-        let damping = self.settings.constraint_damping;
-        let compliance = |a: &DMatrix<f64>| stiffness_of(&(a * &response * a.transpose() * damping));
-        let mut springs = Vec::new();
-        for (_, d) in self.drags.iter() {
-            match d.kind {
-                DragKind::Position(p) => {
-                    let rows = DMatrix::from_fn(3, r, |a, k| modal.phi(d.vertex, a, k));
-                    springs.push(Spring::Position { vertex: d.vertex, target: p, stiffness: compliance(&rows) });
-                }
-                DragKind::Orientation(w) => {
-                    let rows = rotation(d.vertex);
-                    springs.push(Spring::Rotation { stiffness: compliance(&rows), rows, target: w });
-                }
-            }
-        }
-        for (_, f) in self.drags.frames() {
-            let mut rows = DMatrix::zeros(3, r);
-            f.vertices.iter().for_each(|&v| rows += rotation(v));
-            rows /= f.vertices.len() as f64;
-            springs.push(Spring::Rotation { stiffness: compliance(&rows), rows, target: f.rotation });
-        }
-        springs
     }
 
     /// The step's objective at `c` (module documentation), with the positions it leaves in `x`.
@@ -456,74 +410,6 @@ struct Step {
     springs: Vec<Spring>,
 }
 
-/// A drag as a spring (module documentation), its stiffness a 3 × 3 matrix.
-enum Spring {
-    /// Vertex `vertex` pulled to `target`.
-    Position { vertex: usize, target: DVec3, stiffness: DMatrix<f64> },
-    /// A rotation `rows · c` pulled to `target`.
-    Rotation { rows: DMatrix<f64>, target: DVec3, stiffness: DMatrix<f64> },
-}
-
-/// The spring stiffness `C⁺` of a compliance `C` (symmetric 3 × 3): directions the drag cannot move
-/// (an anchored vertex's) get none.
-fn stiffness_of(c: &DMatrix<f64>) -> DMatrix<f64> {
-    let eigen = nalgebra::SymmetricEigen::new((c + c.transpose()) * 0.5);
-    let largest = eigen.eigenvalues.iter().copied().fold(0.0, f64::max);
-    let mut k = DMatrix::zeros(3, 3);
-    for (i, mu) in eigen.eigenvalues.iter().enumerate() {
-        if *mu > 1e-12 * largest {
-            let v = eigen.eigenvectors.column(i);
-            k += v * v.transpose() / *mu;
-        }
-    }
-    k
-}
-
-fn column(v: DVec3) -> DVector<f64> {
-    DVector::from_column_slice(&v.to_array())
-}
-
-impl Spring {
-    fn energy(&self, c: &DVector<f64>, x: &[DVec3]) -> f64 {
-        let gap = match self {
-            Spring::Position { vertex, target, .. } => column(x[*vertex] - *target),
-            Spring::Rotation { rows, target, .. } => rows * c - column(*target),
-        };
-        let (Spring::Position { stiffness, .. } | Spring::Rotation { stiffness, .. }) = self;
-        0.5 * gap.dot(&(stiffness * &gap))
-    }
-
-    /// A position spring's force on its vertex, added to `force`.
-    fn add_force(&self, x: &[DVec3], force: &mut [DVec3]) {
-        if let Spring::Position { vertex, target, stiffness } = self {
-            let f = stiffness * column(x[*vertex] - *target);
-            force[*vertex] -= DVec3::new(f[0], f[1], f[2]);
-        }
-    }
-
-    /// A spring's stiffness (and a rotation spring's gradient, which acts on `c` directly) added to
-    /// the reduced gradient and stiffness.
-    fn add_stiffness(
-        &self,
-        shell: &ReducedShell,
-        j: &DMatrix<f64>,
-        c: &DVector<f64>,
-        gradient: &mut DVector<f64>,
-        stiffness: &mut DMatrix<f64>,
-    ) {
-        match self {
-            Spring::Position { vertex, stiffness: k, .. } => {
-                let rows = shell.rows(j, *vertex);
-                *stiffness += rows.transpose() * k * rows;
-            }
-            Spring::Rotation { rows, target, stiffness: k } => {
-                *gradient += rows.transpose() * (k * (rows * c - column(*target)));
-                *stiffness += rows.transpose() * k * rows;
-            }
-        }
-    }
-}
-
 /// `−S⁻¹ g` for the symmetric step matrix `S`, shifted towards positive definite if it is not.
 fn descent(system: &DMatrix<f64>, grad: &DVector<f64>) -> Result<DVector<f64>, SolverError> {
     let scale = system.diagonal().abs().max().max(f64::MIN_POSITIVE);
@@ -556,8 +442,19 @@ impl Solver for Rds {
         let start = DVector::from_column_slice(&self.c);
         let velocity = DVector::from_column_slice(&self.v);
         let damping = DMatrix::identity(r, r) * self.settings.alpha + &self.built.rest * self.settings.beta;
-        let step =
-            Step { predicted: &start + &velocity * h, start, damping, forces: self.forces(), springs: self.springs() };
+        let step = Step {
+            predicted: &start + &velocity * h,
+            start,
+            damping,
+            forces: self.forces(),
+            springs: springs(
+                &self.drags,
+                &self.built.shell.modal,
+                &self.built.rest,
+                h,
+                self.settings.constraint_damping,
+            ),
+        };
         let (iterations, converged) = self.solve(&step)?;
         self.steps += 1;
         let time = self.steps as f64 * h;

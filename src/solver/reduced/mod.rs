@@ -8,7 +8,8 @@
 //!   less the reconstruction's own second order, pruned by mass-PCA; the modes' span is kept
 //!   exactly.
 //! - **Energy**: `E(x(c))` over every element, its force by the reconstruction's adjoint.
-//! - **Dynamics** ([`method`]): backward Euler at 1/30 s by Newton in `c`; drags as stiff springs.
+//! - **Dynamics** ([`method`]): backward Euler at 1/30 s by Newton in `c`; drags as stiff springs
+//!   ([`springs`]).
 //!
 //! Why the correction: the full energy on the reconstruction of the modes alone locks (the fit leaves
 //! small membrane strains that a membrane 10⁴ times stiffer than bending punishes), and the
@@ -18,5 +19,6 @@
 pub mod basis;
 pub mod energy;
 pub mod method;
+pub mod springs;
 
 pub use method::{RDS, Rds};
