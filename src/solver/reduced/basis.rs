@@ -34,6 +34,7 @@ use glam::DVec3;
 use nalgebra::{DMatrix, SymmetricEigen};
 
 use crate::energy::{DiscreteShell, HessianMode};
+use crate::mesh::TriMesh;
 use crate::solver::SolverError;
 use crate::solver::modal::basis::ModalBasis;
 use crate::solver::modal::compute::{Factored, ModalAnalysis, ModalProblem, factored};
@@ -80,9 +81,9 @@ impl ReducedBasis {
         self.shapes.is_empty()
     }
 
-    /// The basis in the layout of the modal methods (for the reconstruction and rotations).
-    pub fn modal(&self, problem: &ModalProblem<'_>) -> ModalBasis {
-        ModalBasis::new(problem.mesh, self.stiffness.clone(), &self.shapes)
+    /// The basis in the layout of the modal methods (for the reconstruction and rotations), on `mesh`.
+    pub fn modal(&self, mesh: &TriMesh) -> ModalBasis {
+        ModalBasis::new(mesh, self.stiffness.clone(), &self.shapes)
     }
 }
 

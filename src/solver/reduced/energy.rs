@@ -49,7 +49,7 @@ impl ReducedShell {
         k: ShellStiffness,
         basis: &ReducedBasis,
     ) -> Result<Self, SolverError> {
-        let modal = ModalBasis::new(mesh, basis.stiffness.clone(), &basis.shapes);
+        let modal = basis.modal(mesh);
         let rs = RotationStrain::new(mesh, anchors, &modal)?;
         let shell = DiscreteShell::new(mesh, k).map_err(|e| SolverError::Numerical(e.to_string()))?;
         let mut fixed = vec![false; mesh.vertex_count()];
@@ -73,11 +73,6 @@ impl ReducedShell {
     /// The number of coordinates.
     pub fn dim(&self) -> usize {
         self.scales.len()
-    }
-
-    /// Per coordinate, the largest displacement a unit of it makes, m.
-    pub fn scales(&self) -> &[f64] {
-        &self.scales
     }
 
     /// The positions `x(c)`.

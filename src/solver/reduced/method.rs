@@ -23,7 +23,6 @@ use super::basis::{self, ReducedBasis, default_derivatives};
 use super::energy::ReducedShell;
 use super::springs::{Spring, springs};
 use crate::scene::Setup;
-use crate::solver::modal::basis::ModalBasis;
 use crate::solver::modal::cache::Cache;
 use crate::solver::modal::method::{CONSTRAINT_DAMPING, MODES, Request, STEP, named};
 use crate::solver::modal::ritz::{self, StaticResponse};
@@ -365,16 +364,14 @@ impl Rds {
         let basis = if groups.is_empty() {
             base.clone()
         } else {
-            if self.response.is_none() {
-                let masses = self.request.masses();
-                self.response = Some(StaticResponse::new(&self.request.problem(&masses))?);
-            }
-            let mesh = &self.request.mesh;
-            let modal = ModalBasis::new(mesh, base.stiffness.clone(), &base.shapes);
-            let augmented = match &self.response {
-                Some(response) => response.augment(&modal, mesh, &groups)?,
-                None => modal,
+            let response = match self.response.take() {
+                Some(response) => response,
+                None => StaticResponse::new(&self.request.problem(&self.request.masses()))?,
             };
+            let mesh = &self.request.mesh;
+            let augmented = response.augment(&base.modal(mesh), mesh, &groups);
+            self.response = Some(response);
+            let augmented = augmented?;
             let shapes = (0..augmented.modes()).map(|j| augmented.shape(j)).collect();
             ReducedBasis { modes: base.modes, stiffness: augmented.eigenvalues.clone(), shapes }
         };
@@ -522,8 +519,12 @@ impl Solver for Rds {
     }
 
     fn info(&self) -> Vec<(&'static str, f64)> {
-        let b = &self.built.basis;
-        vec![("active modes", b.modes as f64), ("derivative directions", (b.len() - b.modes) as f64)]
+        let (base, basis) = (&self.built.base, &self.built.basis);
+        vec![
+            ("active modes", base.modes as f64),
+            ("derivative directions", (base.len() - base.modes) as f64),
+            ("drag modes", (basis.len() - base.len()) as f64),
+        ]
     }
 }
 
