@@ -219,3 +219,30 @@ fn a_local_pull_is_followed_as_the_discrete_shell_follows_it() {
     eprintln!("tip corner pulled 0.15 m: error rds {rds:.2e}, mwts-rs {rs:.2e}");
     assert!(rds < 0.01 && rds < 0.2 * rs, "rds {rds}, mwts-rs {rs}");
 }
+
+/// The optimised cubature of the modes' energy (no derivative directions): fitted to its own poses,
+/// it reproduces the exact reduced force on poses it was not fitted to (measured on the strip, 8
+/// modes, 300 elements asked: 130 kept of 1,280, mean 0.31%, largest 1.0%), and the strip's
+/// equilibrium under a large load stays where every element puts it (0.66% apart). With the derivative
+/// directions it does not yet (BENCHMARKS.md, *the cubature*), which is why it is off by default.
+#[test]
+fn a_cubature_of_the_modes_reproduces_the_exact_force_on_unseen_poses_and_the_equilibrium() {
+    let o = ["solver.method=rds", "solver.modes=8", "solver.derivatives=0", "solver.cubature=300"].map(String::from);
+    let setup = scene::load("cantilever", &o).unwrap();
+    let mut s = shellwarp::solver::reduced::Rds::new(&setup).unwrap();
+    let kept = s.cubature().expect("a cubature was fitted").elements.len();
+    let errors = s.cubature_errors(20).unwrap();
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    let largest = errors.iter().copied().fold(0.0, f64::max);
+    eprintln!("cubature: {kept} elements; unseen poses: mean {mean:.2e}, largest {largest:.2e}");
+    assert!(kept < 300, "{kept}");
+    assert!(mean < 0.01 && largest < 0.05, "mean {mean}, largest {largest}");
+
+    let g = gravity(35.0);
+    let exact = at_rest("cantilever", "rds", &[g.clone(), o[2].clone()]);
+    let sampled = at_rest("cantilever", "rds", &[g, o[2].clone(), o[3].clone()]);
+    let rest = setup.mesh.positions();
+    let apart = relative_error(&sampled, &exact, rest);
+    eprintln!("the strip at 35 m/s²: the cubature's equilibrium {apart:.2e} from every element's");
+    assert!(apart < 0.02, "{apart}");
+}

@@ -10,9 +10,11 @@ use shellwarp::eval::{self, CaseId, runner::Event};
 
 /// Arguments of `shellwarp eval`.
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Experiments: paper-fig6, paper-fig4, paper-perf, pareto, stability, auto-model, or all.\n\
+#[command(
+    after_help = "Experiments: paper-fig6, paper-fig4, paper-perf, pareto, stability, auto-model, cubature, or all.\n\
     Spread a sweep over machines: `eval --plan EXPERIMENT...` prints one command per case; run them anywhere \
-    (each writes DIR/cases/), then `eval --merge DIR... --out REPORT` draws the charts and summary.")]
+    (each writes DIR/cases/), then `eval --merge DIR... --out REPORT` draws the charts and summary."
+)]
 pub struct EvalArgs {
     /// Experiments to run (`all` for every one).
     #[arg(value_name = "EXPERIMENT")]

@@ -1,5 +1,5 @@
-//! The finite-difference check every energy's tests share, and the deterministic generator their
-//! random configurations come from.
+//! The finite-difference check every energy's tests share (with the deterministic generator their
+//! random configurations come from, [`Rng`]).
 //!
 //! For positions `x` (n points), the check perturbs each coordinate by `±H` and compares the central
 //! differences `(E(x + H eᵢ) − E(x − H eᵢ)) / 2H` with the analytic gradient, and the central
@@ -12,23 +12,7 @@ use glam::DVec3;
 /// The perturbation of a coordinate.
 pub const H: f64 = 1e-6;
 
-/// A small deterministic generator (xorshift), so the tests need no extra crate.
-pub struct Rng(pub u64);
-
-impl Rng {
-    /// Uniform in `[−1, 1)`.
-    pub fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-
-    /// A point with uniform coordinates in `[−1, 1)`.
-    pub fn vec(&mut self) -> DVec3 {
-        DVec3::new(self.uniform(), self.uniform(), self.uniform())
-    }
-}
+pub use crate::linalg::random::Rng;
 
 /// The relative errors of the central differences of `value` against `gradient` at `x`, and of
 /// those of `gradient` against `hessian` (0 when there is none).

@@ -225,38 +225,62 @@ impl DiscreteShell {
         self.check_len(x);
         assert_eq!(out.len(), self.vertex_count, "gradient must have one entry per vertex");
         out.fill(DVec3::ZERO);
+        (0..self.element_count()).map(|e| self.element_gradient(e, x, |v, g| out[v] += g)).sum()
+    }
+
+    /// `Σ w_e W_e(x)` over a weighted set of elements (a cubature): its gradient into `out`
+    /// (overwritten), its value returned.
+    ///
+    /// # Panics
+    /// If `x` or `out` does not have one entry per vertex, or an element number is out of range.
+    pub fn weighted_gradient(&self, x: &[DVec3], elements: &[(usize, f64)], out: &mut [DVec3]) -> f64 {
+        self.check_len(x);
+        assert_eq!(out.len(), self.vertex_count, "gradient must have one entry per vertex");
+        out.fill(DVec3::ZERO);
+        elements.iter().map(|&(e, w)| w * self.element_gradient(e, x, |v, g| out[v] += g * w)).sum()
+    }
+
+    /// `Σ w_e W_e(x)` over a weighted set of elements (a cubature).
+    ///
+    /// # Panics
+    /// If `x` does not have one entry per vertex, or an element number is out of range.
+    pub fn weighted_energy(&self, x: &[DVec3], elements: &[(usize, f64)]) -> f64 {
+        self.check_len(x);
+        elements.iter().map(|&(e, w)| w * self.element_gradient(e, x, |_, _| {})).sum()
+    }
+
+    /// One element's energy `W_e(x)` (stiffness included), with `add(vertex, ∂W_e/∂x_vertex)` called
+    /// for each vertex of its stencil. Elements are numbered as in [`Self::for_each_stencil`].
+    ///
+    /// # Panics
+    /// If `index` is not below [`Self::element_count`].
+    pub fn element_gradient(&self, index: usize, x: &[DVec3], mut add: impl FnMut(usize, DVec3)) -> f64 {
         let k = self.stiffness;
-        let mut w = 0.0;
-        for t in &self.tris {
-            let p = t.v.map(|i| x[i]);
-            let (a, g) = area_gradient(&p);
+        let (nt, ne) = (self.tris.len(), self.edges.len());
+        if index < nt {
+            let t = &self.tris[index];
+            let (a, g) = area_gradient(&t.v.map(|i| x[i]));
             let diff = a - t.rest_area;
-            w += k.k_area * diff * diff / t.rest_area;
             let s = k.k_area * 2.0 * diff / t.rest_area;
-            for (j, &i) in t.v.iter().enumerate() {
-                out[i] += g[j] * s;
-            }
-        }
-        for e in &self.edges {
+            t.v.iter().zip(g).for_each(|(&i, g)| add(i, g * s));
+            k.k_area * diff * diff / t.rest_area
+        } else if index < nt + ne {
+            let e = &self.edges[index - nt];
             let d = x[e.v[1]] - x[e.v[0]];
             let l = d.length();
             let r = l - e.rest_length;
-            w += k.k_length * r * r / e.rest_length;
             let g = d * (k.k_length * 2.0 * r / (e.rest_length * l));
-            out[e.v[0]] -= g;
-            out[e.v[1]] += g;
-        }
-        for h in &self.hinges {
-            let p = h.v.map(|i| x[i]);
-            let (theta, g) = angle_gradient(&p);
+            add(e.v[0], -g);
+            add(e.v[1], g);
+            k.k_length * r * r / e.rest_length
+        } else {
+            let h = &self.hinges[index - nt - ne];
+            let (theta, g) = angle_gradient(&h.v.map(|i| x[i]));
             let delta = wrapped_difference(theta, h.rest_angle);
-            w += k.k_bend * h.weight * delta * delta;
             let s = k.k_bend * h.weight * 2.0 * delta;
-            for (j, &i) in h.v.iter().enumerate() {
-                out[i] += g[j] * s;
-            }
+            h.v.iter().zip(g).for_each(|(&i, g)| add(i, g * s));
+            k.k_bend * h.weight * delta * delta
         }
-        w
     }
 
     /// Compute every element's Hessian (already multiplied by its stiffness) and hand it to
@@ -265,34 +289,41 @@ impl DiscreteShell {
     /// transposes). Assemblers (see `crate::linalg`) scatter these into a sparse matrix.
     pub fn element_hessians(&self, x: &[DVec3], mode: HessianMode, mut sink: impl FnMut(usize, &[usize], &[DMat3])) {
         self.check_len(x);
+        for &index in &self.visit {
+            let index = index as usize;
+            self.element_hessian(index, x, mode, |v, h| sink(index, v, h));
+        }
+    }
+
+    /// One element's Hessian (stiffness included), handed to `sink(vertices, lower)` as in
+    /// [`Self::element_hessians`].
+    ///
+    /// # Panics
+    /// If `index` is not below [`Self::element_count`].
+    pub fn element_hessian(&self, index: usize, x: &[DVec3], mode: HessianMode, sink: impl FnOnce(&[usize], &[DMat3])) {
         let k = self.stiffness;
         let project = mode == HessianMode::Projected;
         let (nt, ne) = (self.tris.len(), self.edges.len());
-        for &index in &self.visit {
-            let index = index as usize;
-            if index < nt {
-                let t = &self.tris[index];
-                let p = t.v.map(|i| x[i]);
-                let (_, _, mut h) = triangle(&p, t.rest_area);
-                h.iter_mut().for_each(|b| *b *= k.k_area);
-                if project {
-                    project_psd_triangle(&mut h);
-                }
-                sink(index, &t.v, &h);
-            } else if index < nt + ne {
-                let e = &self.edges[index - nt];
-                let (_, _, mut h) = edge(x[e.v[0]], x[e.v[1]], e.rest_length, project);
-                h.iter_mut().for_each(|b| *b *= k.k_length);
-                sink(index, &e.v, &h);
-            } else {
-                let hg = &self.hinges[index - nt - ne];
-                let p = hg.v.map(|i| x[i]);
-                let mut h = hinge_hessian(&p, hg.rest_angle, hg.weight * k.k_bend);
-                if project {
-                    project_psd_hinge(&mut h);
-                }
-                sink(index, &hg.v, &h);
+        if index < nt {
+            let t = &self.tris[index];
+            let (_, _, mut h) = triangle(&t.v.map(|i| x[i]), t.rest_area);
+            h.iter_mut().for_each(|b| *b *= k.k_area);
+            if project {
+                project_psd_triangle(&mut h);
             }
+            sink(&t.v, &h);
+        } else if index < nt + ne {
+            let e = &self.edges[index - nt];
+            let (_, _, mut h) = edge(x[e.v[0]], x[e.v[1]], e.rest_length, project);
+            h.iter_mut().for_each(|b| *b *= k.k_length);
+            sink(&e.v, &h);
+        } else {
+            let hg = &self.hinges[index - nt - ne];
+            let mut h = hinge_hessian(&hg.v.map(|i| x[i]), hg.rest_angle, hg.weight * k.k_bend);
+            if project {
+                project_psd_hinge(&mut h);
+            }
+            sink(&hg.v, &h);
         }
     }
 

@@ -222,3 +222,48 @@ fn rest_angle_near_pi_is_wrapped_branch_safely() {
     let (g, hs) = fd_errors(&shell, &x);
     assert!(g < 1e-6 && hs < 1e-6, "FD errors across ±π: {g:e} {hs:e}");
 }
+
+#[test]
+fn a_weighted_element_set_sums_its_elements_and_its_gradient_matches_finite_differences() {
+    let mut rng = Rng(7);
+    let rest = curved_mesh(&mut rng);
+    let shell = DiscreteShell::new(&rest, K).unwrap();
+    let x: Vec<DVec3> = rest.positions().iter().map(|&p| p + rng.vec() * 0.08).collect();
+    let n = x.len();
+    // Every element at weight 1 is the whole energy.
+    let all: Vec<(usize, f64)> = (0..shell.element_count()).map(|e| (e, 1.0)).collect();
+    let (mut g, mut gw) = (vec![DVec3::ZERO; n], vec![DVec3::ZERO; n]);
+    let w = shell.gradient(&x, &mut g);
+    let ww = shell.weighted_gradient(&x, &all, &mut gw);
+    assert!((w - ww).abs() <= 1e-12 * w && (w - shell.energy(&x)).abs() <= 1e-12 * w, "{w} {ww}");
+    assert!(g.iter().zip(&gw).all(|(a, b)| (*a - *b).length() <= 1e-12 * (1.0 + a.length())));
+    // A subset of every kind at random weights: its gradient and its Hessian (summed from the
+    // elements' own) against central differences.
+    let some: Vec<(usize, f64)> =
+        (0..shell.element_count()).step_by(3).map(|e| (e, 0.5 + rng.uniform().abs())).collect();
+    let mut h = vec![vec![0.0; 3 * n]; 3 * n];
+    for &(e, weight) in &some {
+        shell.element_hessian(e, &x, HessianMode::Exact, |v, lower| {
+            for (p, &a) in v.iter().enumerate() {
+                for (q, &b) in v.iter().enumerate() {
+                    let block = if p >= q {
+                        lower[super::hinge::lower_index(p, q)]
+                    } else {
+                        lower[super::hinge::lower_index(q, p)].transpose()
+                    };
+                    for (r, s) in (0..3).flat_map(|r| (0..3).map(move |s| (r, s))) {
+                        h[3 * a + r][3 * b + s] += weight * block.col(s)[r];
+                    }
+                }
+            }
+        });
+    }
+    let gradient = |y: &[DVec3]| {
+        let mut g = vec![DVec3::ZERO; y.len()];
+        shell.weighted_gradient(y, &some, &mut g);
+        g
+    };
+    let (ge, he) = fd::errors(&x, |y| shell.weighted_energy(y, &some), gradient, Some(&h.concat()));
+    eprintln!("weighted set: FD relative errors gradient {ge:.2e}, Hessian {he:.2e}");
+    assert!(ge < 1e-6 && he < 1e-6, "gradient {ge:e}, Hessian {he:e}");
+}

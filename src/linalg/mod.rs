@@ -5,8 +5,9 @@
 //! Cholesky wrapper (faer) that factorises the pattern symbolically once, its variant for a 3-vector
 //! per unknown of a scalar matrix ([`VectorCholesky`]), and Baraff–Witkin's
 //! filtered PCG for constrained particle systems ([`filtered_pcg`]); hot loops compiled for the CPU's
-//! best instruction set ([`isa`]) over per-particle vectors padded to four lanes ([`padded`]), and
-//! arithmetic that one formula writes for a number and for SIMD lanes alike ([`real`]).
+//! best instruction set ([`isa`]) over per-particle vectors padded to four lanes ([`padded`]),
+//! arithmetic that one formula writes for a number and for SIMD lanes alike ([`real`]);
+//! non-negative least squares ([`nnls`]) and a deterministic generator ([`random`]).
 
 mod assembly;
 mod cholesky;
@@ -16,8 +17,10 @@ pub mod filtered_pcg;
 pub mod isa;
 pub mod lanczos;
 pub mod matrix_market;
+pub mod nnls;
 pub mod ordering;
 pub mod padded;
+pub mod random;
 pub mod real;
 mod vector_cholesky;
 

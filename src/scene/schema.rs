@@ -334,6 +334,9 @@ pub struct Part {
     /// `rds`: modal-derivative directions kept.
     #[serde(default)]
     pub derivatives: Option<i64>,
+    /// `rds`: cubature elements (0: every element).
+    #[serde(default)]
+    pub cubature: Option<i64>,
     /// Target relative displacement-field error of this part: the part gets the cheapest model that
     /// meets it (as `solver.accuracy` does for a scene; `method`, else `[solver]`'s, names the family
     /// to choose from).
@@ -357,6 +360,7 @@ impl Part {
         s.rayleigh_beta = self.rayleigh_beta.unwrap_or(s.rayleigh_beta);
         s.constraint_damping = self.constraint_damping.or(s.constraint_damping);
         s.derivatives = self.derivatives.or(s.derivatives);
+        s.cubature = self.cubature.or(s.cubature);
         s
     }
 }
@@ -406,6 +410,10 @@ pub struct SolverSettings {
     /// `rds`'s range, naming its key, rather than by the parser.
     #[serde(default)]
     pub derivatives: Option<i64>,
+    /// `rds`: the energy's optimised cubature, at most this many elements (absent or 0: every
+    /// element, exact). Signed for the same reason as `derivatives`.
+    #[serde(default)]
+    pub cubature: Option<i64>,
     /// Position-based methods: Gauss–Seidel sweeps over the constraints per substep.
     #[serde(default = "default_sweeps")]
     pub sweeps: usize,

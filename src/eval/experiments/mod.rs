@@ -1,6 +1,7 @@
 //! The experiments, and the small helpers their cases and reports share.
 
 mod auto_model;
+mod cubature;
 mod drag;
 mod fig4;
 mod fig6;
@@ -11,6 +12,7 @@ mod stability;
 use glam::DVec3;
 
 pub use auto_model::AutoModel;
+pub use cubature::Cubature;
 pub use drag::Drags;
 pub use fig4::PaperFig4;
 pub use fig6::PaperFig6;
@@ -26,7 +28,8 @@ use super::table::Value;
 use super::{EvalError, Experiment, chart};
 
 /// Every experiment, in the summary's order.
-pub const ALL: &[&dyn Experiment] = &[&PaperFig6, &PaperFig4, &PaperPerf, &Pareto, &Drags, &Stability, &AutoModel];
+pub const ALL: &[&dyn Experiment] =
+    &[&PaperFig6, &PaperFig4, &PaperPerf, &Pareto, &Drags, &Stability, &AutoModel, &Cubature];
 
 /// A chart of the standard size, for a section.
 fn chart_ref(file: String, caption: String) -> ChartRef {

@@ -10,11 +10,17 @@
 //! 1e-6 of each vector's largest displacement), the second the reconstruction's load stiffness
 //! (forward differences of the force pass). Both are approximations to about 1e-6; the force is
 //! exact, so a Newton iteration on them still converges to the exact stationary point.
+//!
+//! With a [`Cubature`] set, `E` is its weighted sum `Σ_{e∈S} w_e E_e` over a few elements instead of
+//! every element: the energy, its gradient (non-zero at the sampled elements' vertices only) and the
+//! projected Hessian `Σ w_e J_eᵀ ∇²E_e J_e` (from the Jacobian's rows at those vertices, with no
+//! sparse assembly). The reconstruction and its adjoint stay global.
 
 use glam::DVec3;
 use nalgebra::{DMatrix, DVector};
 
 use super::basis::ReducedBasis;
+use crate::energy::hinge::lower_index;
 use crate::energy::{DiscreteShell, HessianMode, ShellStiffness};
 use crate::linalg::{BlockAssembler, DofMap};
 use crate::mesh::TriMesh;
@@ -24,6 +30,16 @@ use crate::solver::modal::rotation_strain::RotationStrain;
 
 /// The step of the Jacobian's central differences, relative to a vector's largest displacement.
 const JACOBIAN_STEP: f64 = 1e-6;
+
+/// A weighted set of elements whose energies stand for the whole energy (fitted by
+/// [`super::cubature::fit`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cubature {
+    /// Element numbers (as [`crate::energy::DiscreteShell::for_each_stencil`]) and their weights.
+    pub elements: Vec<(usize, f64)>,
+    /// The relative residual of the fit on its training poses.
+    pub training_error: f64,
+}
 
 /// A shell reduced to a basis, evaluated through the rotation-strain reconstruction.
 #[derive(Debug)]
@@ -39,6 +55,8 @@ pub struct ReducedShell {
     scales: Vec<f64>,
     /// Scratch: the force of the reconstruction's pass.
     force: Vec<f64>,
+    /// The elements and weights the energy is summed over, when not every element.
+    cubature: Option<Cubature>,
 }
 
 impl ReducedShell {
@@ -67,7 +85,48 @@ impl ReducedShell {
             dofs,
             rest: mesh.positions().to_vec(),
             scales,
+            cubature: None,
         })
+    }
+
+    /// Sum the energy over `cubature`'s elements, or over every element (`None`).
+    pub fn set_cubature(&mut self, cubature: Option<Cubature>) {
+        self.cubature = cubature;
+    }
+
+    /// The cubature in use, if any.
+    pub fn cubature(&self) -> Option<&Cubature> {
+        self.cubature.as_ref()
+    }
+
+    /// The number of elements of the full energy.
+    pub fn element_count(&self) -> usize {
+        self.shell.element_count()
+    }
+
+    /// One element's generalised force `J_eᵀ ∇E_e(x)` (the Jacobian's columns `j` over the free DOFs).
+    pub fn element_force(&self, e: usize, x: &[DVec3], j: &DMatrix<f64>) -> DVector<f64> {
+        let mut out = DVector::zeros(j.ncols());
+        self.shell.element_gradient(e, x, |v, g| {
+            if let Some(b) = self.dofs.block(v) {
+                out += j.rows(3 * b, 3).transpose() * nalgebra::Vector3::new(g.x, g.y, g.z);
+            }
+        });
+        out
+    }
+
+    /// One element's projected stiffness `J_eᵀ ∇²E_e(x) J_e`.
+    pub fn element_stiffness(&self, e: usize, x: &[DVec3], j: &DMatrix<f64>) -> DMatrix<f64> {
+        self.sampled_hessian(&[(e, 1.0)], x, j)
+    }
+
+    /// The generalised force `Jᵀ ∇E(x)` of every element (ignoring the cubature).
+    pub fn exact_force(&self, x: &[DVec3], j: &DMatrix<f64>) -> DVector<f64> {
+        let mut g = vec![DVec3::ZERO; x.len()];
+        self.shell.gradient(x, &mut g);
+        let mut gathered = vec![0.0; self.dofs.dofs()];
+        self.dofs.gather(&g, &mut gathered);
+        j.transpose() * DVector::from_vec(gathered)
     }
 
     /// The number of coordinates.
@@ -80,14 +139,20 @@ impl ReducedShell {
         self.rs.reconstruct(c, x, &mut self.force);
     }
 
-    /// The elastic energy `E(x)`, J.
+    /// The elastic energy `E(x)` (by the cubature if one is set), J.
     pub fn energy(&self, x: &[DVec3]) -> f64 {
-        self.shell.energy(x)
+        match &self.cubature {
+            Some(c) => self.shell.weighted_energy(x, &c.elements),
+            None => self.shell.energy(x),
+        }
     }
 
-    /// `∇E(x)` into `out`; returns `E(x)`.
+    /// `∇E(x)` into `out` (by the cubature if one is set); returns `E(x)`.
     pub fn gradient(&self, x: &[DVec3], out: &mut [DVec3]) -> f64 {
-        self.shell.gradient(x, out)
+        match &self.cubature {
+            Some(c) => self.shell.weighted_gradient(x, &c.elements, out),
+            None => self.shell.gradient(x, out),
+        }
     }
 
     /// The columns of `J = ∂x/∂c` at `c`, over the free DOFs (forward differences: one
@@ -112,8 +177,11 @@ impl ReducedShell {
         j
     }
 
-    /// `Jᵀ ∇²E(x) J` (the exact Hessian at `x`).
+    /// `Jᵀ ∇²E(x) J` (the exact Hessian at `x`, of the cubature's elements if one is set).
     pub fn projected_hessian(&mut self, x: &[DVec3], j: &DMatrix<f64>) -> DMatrix<f64> {
+        if let Some(c) = &self.cubature {
+            return self.sampled_hessian(&c.elements, x, j);
+        }
         self.shell.assemble_hessian(&mut self.hessian, x, HessianMode::Exact);
         let mut hj = DMatrix::zeros(j.nrows(), j.ncols());
         let mut out = vec![0.0; j.nrows()];
@@ -122,6 +190,31 @@ impl ReducedShell {
             hj.column_mut(k).copy_from_slice(&out);
         }
         let p = j.transpose() * hj;
+        (&p + p.transpose()) * 0.5
+    }
+
+    /// `Σ w_e J_eᵀ ∇²E_e(x) J_e` over weighted elements.
+    fn sampled_hessian(&self, elements: &[(usize, f64)], x: &[DVec3], j: &DMatrix<f64>) -> DMatrix<f64> {
+        let r = j.ncols();
+        let mut p = DMatrix::zeros(r, r);
+        for &(e, w) in elements {
+            self.shell.element_hessian(e, x, HessianMode::Exact, |vertices, lower| {
+                let k = vertices.len();
+                let mut je = DMatrix::zeros(3 * k, r);
+                vertices.iter().enumerate().for_each(|(a, &v)| je.rows_mut(3 * a, 3).copy_from(&self.rows(j, v)));
+                let mut h = DMatrix::zeros(3 * k, 3 * k);
+                for a in 0..k {
+                    for b in 0..=a {
+                        let block = lower[lower_index(a, b)];
+                        for (row, col) in (0..3).flat_map(|row| (0..3).map(move |col| (row, col))) {
+                            h[(3 * a + row, 3 * b + col)] = block.col(col)[row];
+                            h[(3 * b + col, 3 * a + row)] = block.col(col)[row];
+                        }
+                    }
+                }
+                p += je.transpose() * (h * je) * w;
+            });
+        }
         (&p + p.transpose()) * 0.5
     }
 

@@ -13,6 +13,10 @@
 //!
 //! **Drags** are stiff springs ([`super::springs`]); while position drags last, the static responses
 //! to the dragged vertices join the basis, as in the modal methods.
+//!
+//! **Cubature.** With `solver.cubature` above 0 the energy is summed over an optimised cubature
+//! ([`super::cubature`]) fitted to the base basis after it is built (in the background like it);
+//! a basis grown by drag responses keeps it. 0, the default, sums every element.
 
 use std::time::{Duration, Instant};
 
@@ -20,7 +24,8 @@ use glam::DVec3;
 use nalgebra::{DMatrix, DVector};
 
 use super::basis::{self, ReducedBasis, default_derivatives};
-use super::energy::ReducedShell;
+use super::cubature;
+use super::energy::{Cubature, ReducedShell};
 use super::springs::{Spring, springs};
 use crate::scene::Setup;
 use crate::solver::modal::cache::Cache;
@@ -56,6 +61,20 @@ const DERIVATIVES: ParamSpec = ParamSpec {
     .in_scene("solver.derivatives")
 };
 
+/// The cubature's size.
+const CUBATURE: ParamSpec = ParamSpec {
+    integer: true,
+    ..ParamSpec::linear(
+        "cubature",
+        "cubature",
+        "",
+        "Elements of the energy's optimised cubature (0: every element, exact; refitted in the background).",
+        0.0,
+        100_000.0,
+    )
+    .in_scene("solver.cubature")
+};
+
 /// The parameters (the wind's follow them).
 const PARAMS: &[Param<Rds>] = &[
     Param::new(K_AREA, |m| m.request.stiffness.k_area, |m, v| m.request.stiffness.k_area = v, Redo::Modes),
@@ -67,6 +86,7 @@ const PARAMS: &[Param<Rds>] = &[
     Param::new(RAYLEIGH_BETA, |m| m.settings.beta, |m, v| m.settings.beta = v, Redo::Nothing),
     Param::new(MODES, |m| m.request.modes as f64, |m, v| m.request.modes = v as usize, Redo::Modes),
     Param::new(DERIVATIVES, |m| m.derivatives as f64, |m, v| m.derivatives = v as usize, Redo::Modes),
+    Param::new(CUBATURE, |m| m.cubature as f64, |m, v| m.cubature = v as usize, Redo::Modes),
     Param::new(STEP, |m| m.settings.step, |m, v| m.settings.step = v, Redo::Nothing),
     Param::new(
         CONSTRAINT_DAMPING,
@@ -82,6 +102,9 @@ const PARAMS: &[Param<Rds>] = &[
 /// tracks are followed more closely (the strip's tip turned 180° by a track, 32 modes: 5.5% from
 /// `ds-static` at 1e-2, 3.3% at 1e-3).
 const DRAG_DAMPING: f64 = 1e-4;
+
+/// The seed of the poses the cubature's error is measured on (the training poses use another).
+const UNSEEN_SEED: u64 = 0x5851_f42d_4c95_7f2d;
 
 /// How long a background rebuild waits for further edits before it starts.
 const SETTLE: Duration = Duration::from_millis(200);
@@ -108,20 +131,36 @@ struct Built {
 }
 
 impl Built {
-    /// The modes (cached), their derivatives, the reduced shell.
-    fn of(request: &Request, derivatives: usize, progress: &dyn Fn(f32)) -> Result<Self, SolverError> {
+    /// The modes (cached), their derivatives, the reduced shell, its cubature of at most `cubature`
+    /// elements (none for 0).
+    fn of(request: &Request, sizes: Sizes, progress: &dyn Fn(f32)) -> Result<Self, SolverError> {
         let analysis = request.run(&|f| progress(0.5 * f))?;
         let masses = request.masses();
         let problem = request.problem(&masses);
-        let base = basis::build(&problem, &analysis, derivatives, &|f| progress(0.5 + 0.45 * f))?;
-        let built = Self::with(request, base.clone(), base)?;
+        let base = basis::build(&problem, &analysis, sizes.derivatives, &|f| progress(0.5 + 0.3 * f))?;
+        let fitted = match sizes.cubature {
+            0 => None,
+            size => {
+                let mut shell = ReducedShell::new(&request.mesh, &request.anchors, request.stiffness, &base)?;
+                let rest = request.mesh.positions();
+                Some(cubature::fit(&mut shell, &base, rest, size, &|f| progress(0.8 + 0.2 * f)))
+            }
+        };
+        let built = Self::with(request, base.clone(), base, fitted)?;
         progress(1.0);
         Ok(built)
     }
 
-    /// The reduced shell of `basis` (`base` with any drag responses).
-    fn with(request: &Request, base: ReducedBasis, basis: ReducedBasis) -> Result<Self, SolverError> {
+    /// The reduced shell of `basis` (`base` with any drag responses), its energy summed by
+    /// `cubature` (fitted to `base`) if given.
+    fn with(
+        request: &Request,
+        base: ReducedBasis,
+        basis: ReducedBasis,
+        cubature: Option<Cubature>,
+    ) -> Result<Self, SolverError> {
         let mut shell = ReducedShell::new(&request.mesh, &request.anchors, request.stiffness, &basis)?;
+        shell.set_cubature(cubature);
         let zero = vec![0.0; basis.len()];
         let j = shell.jacobian(&zero);
         let rest = shell.projected_hessian(request.mesh.positions(), &j);
@@ -129,10 +168,20 @@ impl Built {
     }
 }
 
+/// The sizes a basis is built to.
+#[derive(Debug, Clone, Copy)]
+struct Sizes {
+    /// Derivative directions.
+    derivatives: usize,
+    /// Cubature elements (0: every element).
+    cubature: usize,
+}
+
 /// The reduced discrete shell.
 pub struct Rds {
     request: Request,
     derivatives: usize,
+    cubature: usize,
     built: Built,
     settings: Settings,
     loads: Vec<DVec3>,
@@ -171,11 +220,13 @@ impl Rds {
         let request = Request::of(setup, Cache::from_env());
         // In range: checked above.
         let derivatives = s.derivatives.map_or_else(|| default_derivatives(s.modes), |d| d.max(0) as usize);
-        let built = Built::of(&request, derivatives, &|_| {}).map_err(|e| named(e, RDS.name))?;
+        let cubature = s.cubature.map_or(0, |c| c.max(0) as usize);
+        let built = Built::of(&request, Sizes { derivatives, cubature }, &|_| {}).map_err(|e| named(e, RDS.name))?;
         let r = built.basis.len();
         Ok(Self {
             request,
             derivatives,
+            cubature,
             built,
             settings: Settings {
                 step: s.step.unwrap_or(1.0 / 30.0),
@@ -204,6 +255,20 @@ impl Rds {
     /// The basis in use.
     pub fn basis(&self) -> &ReducedBasis {
         &self.built.basis
+    }
+
+    /// The cubature in use (`None`: every element).
+    pub fn cubature(&self) -> Option<&Cubature> {
+        self.built.shell.cubature()
+    }
+
+    /// The cubature's relative force errors on `count` poses it was not fitted to
+    /// ([`cubature::relative_errors`]); `None` without a cubature.
+    pub fn cubature_errors(&mut self, count: usize) -> Option<Vec<f64>> {
+        let fitted = self.built.shell.cubature()?.clone();
+        let rest = self.request.mesh.positions();
+        let built = &mut self.built;
+        Some(cubature::relative_errors(&mut built.shell, &built.base, rest, &fitted, count, UNSEEN_SEED))
     }
 
     /// The external forces of the coming step: gravity, point loads and the wind on the shell as the
@@ -317,8 +382,9 @@ impl Rds {
     }
 
     fn recompute(&mut self) {
-        let (request, derivatives) = (self.request.clone(), self.derivatives);
-        let work = move |report: &dyn Fn(f32)| Built::of(&request, derivatives, report);
+        let request = self.request.clone();
+        let sizes = Sizes { derivatives: self.derivatives, cubature: self.cubature };
+        let work = move |report: &dyn Fn(f32)| Built::of(&request, sizes, report);
         self.pending = Some(Background::start("shellwarp-rds-basis", "basis", &self.generation, SETTLE, work));
     }
 
@@ -375,7 +441,8 @@ impl Rds {
             let shapes = (0..augmented.modes()).map(|j| augmented.shape(j)).collect();
             ReducedBasis { modes: base.modes, stiffness: augmented.eigenvalues.clone(), shapes }
         };
-        let built = Built::with(&self.request, base, basis)?;
+        let cubature = self.built.shell.cubature().cloned();
+        let built = Built::with(&self.request, base, basis, cubature)?;
         self.carry(built);
         self.groups = groups;
         Ok(())
@@ -509,7 +576,13 @@ impl Solver for Rds {
 
     fn progress(&self) -> Option<Progress> {
         self.pending.as_ref().map(|p| Progress {
-            label: format!("computing {} modes and {} derivatives", self.request.modes, self.derivatives),
+            label: match self.cubature {
+                0 => format!("computing {} modes and {} derivatives", self.request.modes, self.derivatives),
+                n => format!(
+                    "computing {} modes, {} derivatives and a {n}-element cubature",
+                    self.request.modes, self.derivatives
+                ),
+            },
             fraction: p.fraction(),
         })
     }
@@ -524,6 +597,8 @@ impl Solver for Rds {
             ("active modes", base.modes as f64),
             ("derivative directions", (base.len() - base.modes) as f64),
             ("drag modes", (basis.len() - base.len()) as f64),
+            ("cubature elements", self.cubature().map_or(0, |c| c.elements.len()) as f64),
+            ("cubature training error", self.cubature().map_or(0.0, |c| c.training_error)),
         ]
     }
 }

@@ -7,7 +7,8 @@
 //! - **Basis** ([`basis`]): the `m` lowest modes and their modal derivatives (Barbič & James 2005)
 //!   less the reconstruction's own second order, pruned by mass-PCA; the modes' span is kept
 //!   exactly.
-//! - **Energy**: `E(x(c))` over every element, its force by the reconstruction's adjoint.
+//! - **Energy**: `E(x(c))` over every element, its force by the reconstruction's adjoint; or over an
+//!   optimised cubature of a few elements ([`cubature`]).
 //! - **Dynamics** ([`method`]): backward Euler at 1/30 s by Newton in `c`; drags as stiff springs
 //!   ([`springs`]).
 //!
@@ -17,6 +18,7 @@
 //! `ψ_ij − χ_ij` adds only what the reconstruction lacks (measured in BENCHMARKS.md).
 
 pub mod basis;
+pub mod cubature;
 pub mod energy;
 pub mod method;
 pub mod springs;
