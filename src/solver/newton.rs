@@ -25,17 +25,16 @@ use crate::scene::Setup;
 pub(crate) const STEP: ParamSpec =
     ParamSpec::linear("step", "time step", "s", "Backward Euler step.", 1e-6, 1.0).in_scene("solver.step");
 
+/// The Newton iteration cap's spec, shared by every method that iterates Newton's method in a step.
+pub(crate) const ITERATIONS_SPEC: ParamSpec = ParamSpec {
+    integer: true,
+    ..ParamSpec::linear("iterations", "Newton iterations", "", "Cap on Newton iterations per step.", 1.0, 1000.0)
+        .in_scene("solver.iterations")
+};
+
 /// The Newton iteration cap.
-const ITERATIONS: Param<NewtonSettings> = Param::new(
-    ParamSpec {
-        integer: true,
-        ..ParamSpec::linear("iterations", "Newton iterations", "", "Cap on Newton iterations per step.", 1.0, 1000.0)
-            .in_scene("solver.iterations")
-    },
-    |n| n.max_iterations as f64,
-    |n, v| n.max_iterations = v as usize,
-    Redo::Nothing,
-);
+const ITERATIONS: Param<NewtonSettings> =
+    Param::new(ITERATIONS_SPEC, |n| n.max_iterations as f64, |n, v| n.max_iterations = v as usize, Redo::Nothing);
 
 /// The Newton tolerance.
 const TOLERANCE: Param<NewtonSettings> = Param::new(
