@@ -274,7 +274,7 @@ impl Rds {
         let fitted = self.built.shell.cubature()?.clone();
         let rest = self.request.mesh.positions();
         let built = &mut self.built;
-        Some(cubature::relative_errors(&mut built.shell, &built.base, rest, &fitted, count, UNSEEN_SEED))
+        Some(cubature::relative_errors(&mut built.shell, &built.basis, rest, &fitted, count, UNSEEN_SEED))
     }
 
     /// The external forces of the coming step: gravity, point loads and the wind on the shell as the
