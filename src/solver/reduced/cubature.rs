@@ -209,8 +209,42 @@ pub fn relative_errors(
 mod tests {
     use nalgebra::{DMatrix, DVector};
 
-    use super::greedy;
+    use glam::DVec3;
+
+    use super::{Cubature, greedy};
+    use crate::energy::ShellStiffness;
     use crate::linalg::random::Rng;
+    use crate::mesh::generate::v_beam;
+    use crate::solver::modal::compute::{ModalProblem, analyse};
+    use crate::solver::reduced::basis;
+    use crate::solver::reduced::energy::ReducedShell;
+
+    #[test]
+    fn every_element_at_weight_one_is_the_exact_energy_force_and_projected_hessian() {
+        let mesh = v_beam(1.0, 0.2, 90.0, [10, 4]).unwrap();
+        let anchors: Vec<usize> = (0..mesh.vertex_count()).filter(|&v| mesh.positions()[v].x < -0.45).collect();
+        let masses: Vec<f64> = mesh.vertex_areas().iter().map(|a| a * 0.5).collect();
+        let stiffness = ShellStiffness { k_area: 1000.0, k_length: 1000.0, k_bend: 0.5 };
+        let p =
+            ModalProblem { mesh: &mesh, anchors: &anchors, masses: &masses, stiffness, modes: 3, keep_rigid: false };
+        let analysis = analyse(&p, &|_| {}).unwrap();
+        let b = basis::build(&p, &analysis, 4, &|_| {}).unwrap();
+        let mut shell = ReducedShell::new(&mesh, &anchors, stiffness, &b).unwrap();
+        let rest = mesh.positions();
+        let c = &super::poses(&b, rest, 4, 17)[3];
+        let mut x = rest.to_vec();
+        shell.positions(c, &mut x);
+        let j = shell.jacobian(c);
+        let (mut g, mut gw) = (vec![DVec3::ZERO; x.len()], vec![DVec3::ZERO; x.len()]);
+        let (e, h) = (shell.gradient(&x, &mut g), shell.projected_hessian(&x, &j));
+        let all = (0..shell.element_count()).map(|e| (e, 1.0)).collect();
+        shell.set_cubature(Some(Cubature { elements: all, training_error: 0.0 }));
+        let (ew, hw) = (shell.gradient(&x, &mut gw), shell.projected_hessian(&x, &j));
+        assert!(e > 0.0 && (e - ew).abs() <= 1e-12 * e && (e - shell.energy(&x)).abs() <= 1e-12 * e, "{e} {ew}");
+        assert!(g.iter().zip(&gw).all(|(a, b)| (*a - *b).length() <= 1e-10 * (1.0 + a.length())));
+        let gap = (&h - &hw).amax() / h.amax();
+        assert!(gap < 1e-12, "projected Hessians differ by {gap:e} of the largest entry");
+    }
 
     #[test]
     fn the_greedy_fit_finds_a_sparse_exact_rule_and_stops_at_its_size() {
