@@ -5,6 +5,7 @@ use std::collections::HashMap;
 use glam::{DQuat, DVec3};
 
 use super::fd::{self, Rng};
+use super::stretch::packed_entry;
 use super::{DiscreteShell, HessianMode, ShellStiffness};
 use crate::linalg::DofMap;
 use crate::mesh::{TriMesh, generate};
@@ -244,17 +245,8 @@ fn a_weighted_element_set_sums_its_elements_and_its_gradient_matches_finite_diff
     let mut h = vec![vec![0.0; 3 * n]; 3 * n];
     for &(e, weight) in &some {
         shell.element_hessian(e, &x, HessianMode::Exact, |v, lower| {
-            for (p, &a) in v.iter().enumerate() {
-                for (q, &b) in v.iter().enumerate() {
-                    let block = if p >= q {
-                        lower[super::hinge::lower_index(p, q)]
-                    } else {
-                        lower[super::hinge::lower_index(q, p)].transpose()
-                    };
-                    for (r, s) in (0..3).flat_map(|r| (0..3).map(move |s| (r, s))) {
-                        h[3 * a + r][3 * b + s] += weight * block.col(s)[r];
-                    }
-                }
+            for (i, j) in (0..3 * v.len()).flat_map(|i| (0..3 * v.len()).map(move |j| (i, j))) {
+                h[3 * v[i / 3] + i % 3][3 * v[j / 3] + j % 3] += weight * packed_entry(lower, i, j);
             }
         });
     }

@@ -20,7 +20,7 @@ use glam::DVec3;
 use nalgebra::{DMatrix, DVector};
 
 use super::basis::ReducedBasis;
-use crate::energy::hinge::lower_index;
+use crate::energy::stretch::packed_entry;
 use crate::energy::{DiscreteShell, HessianMode, ShellStiffness};
 use crate::linalg::{BlockAssembler, DofMap};
 use crate::mesh::TriMesh;
@@ -202,16 +202,7 @@ impl ReducedShell {
                 let k = vertices.len();
                 let mut je = DMatrix::zeros(3 * k, r);
                 vertices.iter().enumerate().for_each(|(a, &v)| je.rows_mut(3 * a, 3).copy_from(&self.rows(j, v)));
-                let mut h = DMatrix::zeros(3 * k, 3 * k);
-                for a in 0..k {
-                    for b in 0..=a {
-                        let block = lower[lower_index(a, b)];
-                        for (row, col) in (0..3).flat_map(|row| (0..3).map(move |col| (row, col))) {
-                            h[(3 * a + row, 3 * b + col)] = block.col(col)[row];
-                            h[(3 * b + col, 3 * a + row)] = block.col(col)[row];
-                        }
-                    }
-                }
+                let h = DMatrix::from_fn(3 * k, 3 * k, |a, b| packed_entry(lower, a, b));
                 p += je.transpose() * (h * je) * w;
             });
         }
