@@ -144,15 +144,13 @@ impl Built {
         let masses = request.masses();
         let problem = request.problem(&masses);
         let base = basis::build(&problem, &analysis, sizes.derivatives, &|f| progress(0.5 + 0.3 * f))?;
-        let fitted = match sizes.cubature {
-            0 => None,
-            size => {
-                let mut shell = ReducedShell::new(&request.mesh, &request.anchors, request.stiffness, &base)?;
-                let rest = request.mesh.positions();
-                Some(cubature::fit(&mut shell, &base, rest, size, &|f| progress(0.8 + 0.2 * f)))
-            }
-        };
-        let built = Self::with(request, base.clone(), base, fitted)?;
+        let mut shell = ReducedShell::new(&request.mesh, &request.anchors, request.stiffness, &base)?;
+        if sizes.cubature > 0 {
+            let rest = request.mesh.positions();
+            let fitted = cubature::fit(&mut shell, &base, rest, sizes.cubature, &|f| progress(0.8 + 0.2 * f));
+            shell.set_cubature(Some(fitted));
+        }
+        let built = Self::around(request, base.clone(), base, shell);
         progress(1.0);
         Ok(built)
     }
@@ -167,10 +165,15 @@ impl Built {
     ) -> Result<Self, SolverError> {
         let mut shell = ReducedShell::new(&request.mesh, &request.anchors, request.stiffness, &basis)?;
         shell.set_cubature(cubature);
+        Ok(Self::around(request, base, basis, shell))
+    }
+
+    /// The built basis around `shell` (the reduced shell of `basis`), with its rest stiffness.
+    fn around(request: &Request, base: ReducedBasis, basis: ReducedBasis, mut shell: ReducedShell) -> Self {
         let zero = vec![0.0; basis.len()];
         let j = shell.jacobian(&zero);
         let rest = shell.projected_hessian(request.mesh.positions(), &j);
-        Ok(Self { base, basis, shell, rest })
+        Self { base, basis, shell, rest }
     }
 }
 
