@@ -3,13 +3,17 @@
 //! The count comes from `--threads N` (any subcommand), else the environment variable
 //! `SHELLWARP_THREADS`, else every core the process may run on. It sizes rayon's global pool, over
 //! which a sparse solve with several right sides splits its columns (the modal analysis's block
-//! solves, [`crate::linalg::SparseCholesky::solve_many`]), and [`par`] hands the same count to faer
-//! for the eigen solver's dense products. Work that is already one task per core (the evaluation's
-//! `--jobs`, the simulation and render threads of the viewer) is not split further by this setting.
+//! solves, [`crate::linalg::SparseCholesky::solve_many`]), `mwts-rs`'s step runs the two halves
+//! of its triangle pass and of its reconstruction solve ([`join`], inside the pool: [`in_pool`]),
+//! and [`par`] hands the same count to faer for the eigen solver's dense products. Work that is
+//! already one task per core (the evaluation's `--jobs`, the simulation and render threads of the
+//! viewer) is not split further by this setting.
 //!
-//! faer's blocked kernels group a split block's columns differently, so results agree across thread
-//! counts to round-off, not to the bit (tested in `tests/threads.rs`: the creature's eigenvalues to
-//! 1e-12, an implicit step of it to 1e-12).
+//! faer's blocked kernels group a split block's columns differently, so the modal analysis and the
+//! implicit solves agree across thread counts to round-off, not to the bit (tested in
+//! `tests/threads.rs`: the creature's eigenvalues to 1e-12, an implicit step of it to 1e-12).
+//! `mwts-rs`'s halves are summed in the same order on one thread as on two, so its steps agree to
+//! the bit (tested there too).
 
 use std::sync::OnceLock;
 
@@ -60,6 +64,19 @@ pub fn par() -> Par {
         1 => Par::Seq,
         n => Par::rayon(n),
     }
+}
+
+/// Run `f` on one of the pool's threads when there are several (else here), so that the joins
+/// inside it hand their second half to another pool thread directly. A join called from outside the
+/// pool instead wakes a pool thread for the whole join and sleeps until it is done: on two cores,
+/// one wake-up more per join, and three threads on two cores.
+pub fn in_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    if threads() > 1 && rayon::current_thread_index().is_none() { rayon::scope(|_| f()) } else { f() }
+}
+
+/// `(a(), b())`, at once on two pool threads when there are several (`rayon::join`), else in turn.
+pub fn join<RA: Send, RB: Send>(a: impl FnOnce() -> RA + Send, b: impl FnOnce() -> RB + Send) -> (RA, RB) {
+    if threads() > 1 { rayon::join(a, b) } else { (a(), b()) }
 }
 
 /// Every core this process may run on.

@@ -5,7 +5,11 @@ use std::process::{Command, Output};
 
 /// Run the program with `args` and a private cache; its output.
 fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let cache = tempfile::tempdir().unwrap();
+    run_with_cache(&tempfile::tempdir().unwrap(), args, env)
+}
+
+/// Run the program with `args` and the mode cache in `cache`; its output.
+fn run_with_cache(cache: &tempfile::TempDir, args: &[&str], env: &[(&str, &str)]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_shellwarp"))
         .args(args)
         .env("SHELLWARP_CACHE_DIR", cache.path())
@@ -53,6 +57,26 @@ fn a_newton_solve_of_the_discrete_shell_is_the_same_on_one_thread_and_on_two() {
     }
     assert_eq!(one["total_iterations"], two["total_iterations"]);
     assert!(one["converged"].as_bool().unwrap() && two["converged"].as_bool().unwrap());
+}
+
+#[test]
+fn a_mwts_rs_run_is_the_same_to_the_bit_on_one_thread_and_on_two() {
+    // The reconstruction's triangle pass runs in two halves and its solve in two halves of the
+    // elimination tree, on two threads at once or on one in turn: the same sums either way. The
+    // modes (equal across thread counts to round-off only) are computed once and shared.
+    let cache = tempfile::tempdir().unwrap();
+    let run = |threads: &str| {
+        let args =
+            ["sim", "--scene", "creature", "--method", "mwts-rs", "--steps", "20", "--json", "--threads", threads];
+        let out = run_with_cache(&cache, &args, &[]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let (one, two) = (run("1"), run("2"));
+    for key in ["final_energy", "bbox_min", "bbox_max", "area_change"] {
+        assert!(!one[key].is_null(), "{key} missing: {one}");
+        assert_eq!(one[key], two[key], "{key}");
+    }
 }
 
 #[test]

@@ -22,6 +22,8 @@ pub mod ordering;
 pub mod padded;
 pub mod random;
 pub mod real;
+mod substitution;
+pub mod tree_split;
 mod vector_cholesky;
 
 pub use assembly::BlockAssembler;

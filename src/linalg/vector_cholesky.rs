@@ -11,16 +11,22 @@
 //! forwards through memory (the columns are stored last to first). Up to 65,536 unknowns the indices
 //! are 16-bit and the solution a fixed-size array, so the gathers need no bounds checks; larger
 //! systems take 32-bit indices and checked gathers. The loops are compiled for AVX2 + FMA where the
-//! CPU has them ([`super::isa`]). A solve reads the factor twice and allocates nothing. On the
-//! creature's Laplacian, streaming the backward pass forwards and gathering without bounds checks or
+//! CPU has them ([`super::isa`]). A solve reads the factor twice and allocates nothing.
+//!
+//! On the creature's Laplacian, streaming the backward pass forwards and gathering without bounds checks or
 //! separate multiplies measured faster than before, and the whole solve faster than faer's own with
 //! three columns, simplicial or supernodal; geometric nested dissection gives more fill there, and a
 //! slower solve; more or fewer sums, and a backward pass scattering from the rows (one copy of the
 //! factor instead of two), were each no faster or slower (`BENCHMARKS.md`, *Design measurements
 //! quoted from module docs*).
+//!
+//! **Two threads.** The minimum-degree order is relabelled, with the same factor, so that the
+//! unknowns come as two independent halves of the elimination tree and then their common ancestors
+//! ([`super::tree_split`]). With more than one thread ([`crate::threads`]) each substitution solves
+//! the halves at once and the top alone ([`super::substitution`]); each unknown is summed in the same
+//! order as on one thread, so the solution is the same to the bit.
 
-use std::ops::IndexMut;
-
+use faer::perm::PermRef;
 use faer::sparse::SparseColMatRef;
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
@@ -29,88 +35,30 @@ use faer::sparse::linalg::cholesky::{
 use faer::{Par, Side};
 
 use super::LinalgError;
-use super::isa::{Kernel, avx2};
 use super::padded::Padded;
+use super::substitution::{Compressed, Factor, substitute};
+use super::tree_split;
 
 /// Systems of at most this many unknowns get 16-bit indices and a fixed-size solution array.
 const SHORT: usize = 1 << 16;
 
-/// The integer type of the factor's indices.
-trait FactorIndex: Copy + Default + std::fmt::Debug + PartialEq {
-    /// From an index known to fit.
-    fn narrow(i: u32) -> Self;
-    /// As an index.
-    fn get(self) -> usize;
-}
-
-impl FactorIndex for u16 {
-    #[inline(always)]
-    fn narrow(i: u32) -> Self {
-        debug_assert!(i < 1 << 16, "{i} does not fit 16 bits");
-        i as u16
-    }
-    #[inline(always)]
-    fn get(self) -> usize {
-        usize::from(self)
-    }
-}
-
-impl FactorIndex for u32 {
-    #[inline(always)]
-    fn narrow(i: u32) -> Self {
-        i
-    }
-    #[inline(always)]
-    fn get(self) -> usize {
-        self as usize
-    }
-}
-
-/// The strictly lower triangle of `L` compressed by rows or by columns: per line, the columns (rows)
-/// and values of its entries, the lines in the order a substitution visits them.
-#[derive(Debug, Clone, PartialEq, Default)]
-struct Compressed<I> {
-    start: Vec<usize>,
-    index: Vec<I>,
-    value: Vec<f64>,
-}
-
-impl Compressed<u32> {
-    /// The same lines with their indices in `I` (each must fit).
-    fn narrow<I: FactorIndex>(self) -> Compressed<I> {
-        let index = self.index.iter().map(|&i| I::narrow(i)).collect();
-        Compressed { start: self.start, index, value: self.value }
-    }
-
-    /// The same lines, last first.
-    fn reversed(&self) -> Self {
-        let mut out = Self { start: vec![0], ..Default::default() };
-        for line in self.start.windows(2).rev() {
-            out.index.extend_from_slice(&self.index[line[0]..line[1]]);
-            out.value.extend_from_slice(&self.value[line[0]..line[1]]);
-            out.start.push(out.index.len());
-        }
-        out
-    }
-}
-
-/// The rows and the reversed columns of the factor, and the right side and solution.
+/// The factor and the right side and solution.
 #[derive(Clone, PartialEq)]
 enum Lines {
     /// At most [`SHORT`] unknowns (the array's tail past them unused).
-    Short { rows: Compressed<u16>, columns: Compressed<u16>, x: Box<[Padded; SHORT]> },
+    Short { factor: Factor<u16>, x: Box<[Padded; SHORT]> },
     /// More.
-    Long { rows: Compressed<u32>, columns: Compressed<u32>, x: Vec<Padded> },
+    Long { factor: Factor<u32>, x: Vec<Padded> },
 }
 
 impl std::fmt::Debug for Lines {
     /// The index width and sizes (not the 65,536-entry array).
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let (width, rows, columns) = match self {
-            Lines::Short { rows, columns, .. } => (16, rows.index.len(), columns.index.len()),
-            Lines::Long { rows, columns, .. } => (32, rows.index.len(), columns.index.len()),
+        let (width, entries) = match self {
+            Lines::Short { factor, .. } => (16, factor.columns.index.len()),
+            Lines::Long { factor, .. } => (32, factor.columns.index.len()),
         };
-        write!(f, "Lines {{ index_bits: {width}, row_entries: {rows}, column_entries: {columns} }}")
+        write!(f, "Lines {{ index_bits: {width}, entries_below_diagonal: {entries} }}")
     }
 }
 
@@ -120,6 +68,10 @@ pub struct VectorCholesky {
     order: Vec<usize>,
     lines: Lines,
     inverse_diagonal: Vec<f64>,
+    /// The ends of the elimination tree's two independent halves (module documentation), if found.
+    halves: Option<[usize; 2]>,
+    /// Per half, what each top row takes from it (`−Σ_j L_ij x_j`), during a solve.
+    from_halves: [Vec<Padded>; 2],
 }
 
 impl VectorCholesky {
@@ -139,8 +91,19 @@ impl VectorCholesky {
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
             ..Default::default()
         };
-        let symbolic = factorize_symbolic_cholesky(matrix.symbolic(), Side::Upper, SymmetricOrdering::Amd, params)
-            .map_err(|e| LinalgError::Symbolic(format!("{e:?}")))?;
+        let symbolic_in = |ordering| {
+            factorize_symbolic_cholesky(matrix.symbolic(), Side::Upper, ordering, params)
+                .map_err(|e| LinalgError::Symbolic(format!("{e:?}")))
+        };
+        let mut symbolic = symbolic_in(SymmetricOrdering::Amd)?;
+        let mut halves = None;
+        if let (Some(split), Some(amd)) = (elimination_split(&symbolic), symbolic.perm()) {
+            let forward: Vec<usize> = split.order.iter().map(|&k| amd.arrays().0[k]).collect();
+            let mut inverse = vec![0; n];
+            forward.iter().enumerate().for_each(|(k, &i)| inverse[i] = k);
+            symbolic = symbolic_in(SymmetricOrdering::Custom(PermRef::new_checked(&forward, &inverse, n)))?;
+            halves = Some(split.halves);
+        }
         let mut values = vec![0.0; symbolic.len_val()];
         let need = symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
         let mut scratch = dyn_stack::MemBuffer::try_new(need)
@@ -188,19 +151,35 @@ impl VectorCholesky {
                 *slot += 1;
             }
         }
+        // The halves must not meet (an order that keeps the tree would guarantee it): if they did,
+        // the solve stays on one thread.
+        let found = halves;
+        let half = |i: usize| found.map_or(2, |[a, b]| usize::from(i >= a) + usize::from(i >= b));
+        if halves.is_some() && (0..n).any(|i| half(i) < 2 && rows.line(i).any(|j| half(j) != half(i))) {
+            debug_assert!(false, "the elimination tree's halves meet in the factor");
+            halves = None;
+        }
+        let (rows, from_halves) = cut_top_rows(rows, halves.map_or(n, |[_, b]| b), half);
         // The backward pass visits the columns last to first: stored in that order, it streams the
         // factor forwards through memory as the forward pass does.
-        let columns = columns.reversed();
+        let factor = Factor { rows, columns: columns.reversed(), from_halves };
         let lines = if n <= short.min(SHORT) {
             let x = vec![Padded::ZERO; SHORT]
                 .into_boxed_slice()
                 .try_into()
                 .map_err(|_| LinalgError::Symbolic("the solution array does not have its fixed size".into()))?;
-            Lines::Short { rows: rows.narrow(), columns: columns.narrow(), x }
+            Lines::Short { factor: factor.narrow(), x }
         } else {
-            Lines::Long { rows, columns, x: vec![Padded::ZERO; n] }
+            Lines::Long { factor, x: vec![Padded::ZERO; n] }
         };
-        Ok(Self { order, lines, inverse_diagonal })
+        let top = halves.map_or(0, |[_, b]| n - b);
+        Ok(Self {
+            order,
+            lines,
+            inverse_diagonal,
+            halves,
+            from_halves: [vec![Padded::ZERO; top], vec![Padded::ZERO; top]],
+        })
     }
 
     /// Number of unknowns.
@@ -217,8 +196,8 @@ impl VectorCholesky {
     /// Entries of the factor (with the diagonal).
     pub fn factor_entries(&self) -> usize {
         let below = match &self.lines {
-            Lines::Short { rows, .. } => rows.index.len(),
-            Lines::Long { rows, .. } => rows.index.len(),
+            Lines::Short { factor, .. } => factor.columns.index.len(),
+            Lines::Long { factor, .. } => factor.columns.index.len(),
         };
         below + self.dim()
     }
@@ -241,60 +220,68 @@ impl VectorCholesky {
         }
     }
 
-    /// Solve `A x = b` in place.
+    /// Solve `A x = b` in place (the halves on two threads where more than one is set).
     pub fn solve(&mut self) {
-        let inverse_diagonal = &self.inverse_diagonal;
-        match &mut self.lines {
-            Lines::Short { rows, columns, x } => substitute(rows, columns, inverse_diagonal, &mut **x),
-            Lines::Long { rows, columns, x } => substitute(rows, columns, inverse_diagonal, &mut x[..]),
+        let parallel = crate::threads::threads() > 1;
+        let Self { inverse_diagonal, halves, from_halves, lines, .. } = self;
+        match lines {
+            Lines::Short { factor, x } => {
+                substitute(factor, inverse_diagonal, &mut **x, *halves, from_halves, parallel)
+            }
+            Lines::Long { factor, x } => {
+                substitute(factor, inverse_diagonal, &mut x[..], *halves, from_halves, parallel)
+            }
         }
+    }
+
+    /// Whether the elimination tree was split into two halves a solve may run apart.
+    pub fn has_halves(&self) -> bool {
+        self.halves.is_some()
     }
 }
 
-/// Both substitutions: forward by `rows`, backward by the reversed `columns`.
-fn substitute<I: FactorIndex, X: ?Sized + IndexMut<usize, Output = Padded>>(
-    rows: &Compressed<I>,
-    columns: &Compressed<I>,
-    inverse_diagonal: &[f64],
-    x: &mut X,
-) {
-    avx2(Substitute { factor: rows, inverse_diagonal, x: &mut *x, reverse: false });
-    avx2(Substitute { factor: columns, inverse_diagonal, x, reverse: true });
-}
-
-/// One substitution: `x_i ← (x_i − Σ_j L_ij x_j) / L_ii` over the entries of `factor`'s `k`-th line,
-/// for `i = k` ascending (forward, by rows) or `i = n − 1 − k` descending (backward, by columns).
-struct Substitute<'a, I, X: ?Sized> {
-    factor: &'a Compressed<I>,
-    inverse_diagonal: &'a [f64],
-    x: &'a mut X,
-    reverse: bool,
-}
-
-impl<I: FactorIndex, X: ?Sized + IndexMut<usize, Output = Padded>> Kernel for Substitute<'_, I, X> {
-    type Output = ();
-
-    #[inline(always)]
-    fn run(self) {
-        let Self { factor, inverse_diagonal, x, reverse } = self;
-        let n = inverse_diagonal.len();
-        for k in 0..n {
-            let i = if reverse { n - 1 - k } else { k };
-            let line = factor.start[k]..factor.start[k + 1];
-            let (index, value) = (factor.index[line.clone()].chunks_exact(4), factor.value[line].chunks_exact(4));
-            let (index_tail, value_tail) = (index.remainder(), value.remainder());
-            let mut sums = [x[i], Padded::ZERO, Padded::ZERO, Padded::ZERO];
-            for (four, values) in index.zip(value) {
-                for ((&j, &l), s) in four.iter().zip(values).zip(&mut sums) {
-                    *s = s.minus_scaled(x[j.get()], l);
-                }
-            }
-            for (&j, &l) in index_tail.iter().zip(value_tail) {
-                sums[0] = sums[0].minus_scaled(x[j.get()], l);
-            }
-            x[i] = ((sums[0] + sums[1]) + (sums[2] + sums[3])) * inverse_diagonal[i];
+/// The split of the elimination tree of `symbolic`'s simplicial factor, each unknown weighted by
+/// its entries in the factor's row and column (what the two substitutions read for it).
+fn elimination_split(
+    symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usize>,
+) -> Option<tree_split::TreeSplit> {
+    let SymbolicCholeskyRaw::Simplicial(l) = symbolic.raw() else { return None };
+    let (start, row) = (l.col_ptr(), l.row_idx());
+    let n = start.len() - 1;
+    let mut work = vec![1u64; n];
+    let mut parent = vec![None; n];
+    for j in 0..n {
+        for &i in row[start[j]..start[j + 1]].iter().filter(|&&i| i > j) {
+            work[i] += 1;
+            work[j] += 1;
+            parent[j] = Some(parent[j].map_or(i, |p: usize| p.min(i)));
         }
     }
+    tree_split::split(&parent, &work)
+}
+
+/// The rows from `top` on (of a factor with `n` rows) cut into their entries in the top, kept in
+/// the rows, and those in each half (`half(j)` = 0 or 1; 2 for the top), one line per top row.
+fn cut_top_rows(
+    rows: Compressed<u32>,
+    top: usize,
+    half: impl Fn(usize) -> usize,
+) -> (Compressed<u32>, [Compressed<u32>; 2]) {
+    let n = rows.start.len() - 1;
+    // Parts 0 and 1: from each half; part 2: kept.
+    let mut parts: [Compressed<u32>; 3] = Default::default();
+    parts.iter_mut().for_each(|c| c.start.push(0));
+    for i in 0..n {
+        for p in rows.start[i]..rows.start[i + 1] {
+            let part = &mut parts[if i < top { 2 } else { half(rows.index[p] as usize) }];
+            part.index.push(rows.index[p]);
+            part.value.push(rows.value[p]);
+        }
+        let cut = if i < top { 2..3 } else { 0..3 };
+        parts[cut].iter_mut().for_each(|c| c.start.push(c.index.len()));
+    }
+    let [first, second, kept] = parts;
+    (kept, [first, second])
 }
 
 #[cfg(test)]
@@ -352,6 +339,50 @@ mod tests {
         )
         .unwrap();
         assert!(VectorCholesky::new(bad.as_ref()).is_err());
+    }
+
+    #[test]
+    fn a_grid_splits_into_halves_solved_on_two_threads_as_on_one_to_the_bit() {
+        // A 60 × 60 grid's Laplacian with diagonals, plus a shift: its elimination tree has halves.
+        let side = 60;
+        let id = |i: usize, j: usize| i * side + j;
+        let mut entries = Vec::new();
+        for (i, j) in (0..side).flat_map(|i| (0..side).map(move |j| (i, j))) {
+            entries.push(Triplet::new(id(i, j), id(i, j), 6.5));
+            for (di, dj) in [(0, 1), (1, 0), (1, 1)] {
+                if i + di < side && j + dj < side {
+                    entries.push(Triplet::new(id(i, j), id(i + di, j + dj), -1.0));
+                }
+            }
+        }
+        let n = side * side;
+        let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &entries).unwrap();
+        let b: Vec<DVec3> = (0..n).map(|i| DVec3::new((0.1 * i as f64).cos(), (i % 5) as f64, 1.0)).collect();
+        let mut reference = crate::linalg::SparseCholesky::new(a.as_ref()).unwrap();
+        reference.factor(a.as_ref()).unwrap();
+        let mut chol = VectorCholesky::new(a.as_ref()).unwrap();
+        let [first, second] = chol.halves.expect("a grid has halves");
+        assert!(first > n / 4 && second - first > n / 4 && n - second < n / 10, "{first} {second} of {n}");
+        let mut solutions = Vec::new();
+        for parallel in [false, true] {
+            let order = chol.order().to_vec();
+            chol.rhs_mut().iter_mut().zip(&order).for_each(|(x, &i)| *x = b[i].into());
+            let VectorCholesky { inverse_diagonal, halves, from_halves, lines: Lines::Short { factor, x }, .. } =
+                &mut chol
+            else {
+                panic!("16-bit indices")
+            };
+            substitute(factor, inverse_diagonal, &mut **x, *halves, from_halves, parallel);
+            for axis in 0..3 {
+                let mut column: Vec<f64> = b.iter().map(|v| v[axis]).collect();
+                reference.solve(&mut column).unwrap();
+                for (got, &i) in chol.solution().iter().zip(&order) {
+                    assert!((got.lane(axis) - column[i]).abs() < 1e-12 * column[i].abs().max(1.0));
+                }
+            }
+            solutions.push(chol.solution().to_vec());
+        }
+        assert_eq!(solutions[0], solutions[1], "one thread and two, bit for bit");
     }
 
     #[test]

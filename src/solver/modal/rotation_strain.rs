@@ -59,7 +59,8 @@ use nalgebra::DMatrix;
 
 use super::basis::ModalBasis;
 use super::laplacian::{EdgeLaplacian, Gauge};
-use super::rs_pass::{DragRows, Moments, TrianglePass};
+use super::rs_pass::{DragRows, Moments, RightSide, TrianglePass};
+use crate::linalg::padded::Padded;
 use crate::mesh::TriMesh;
 use crate::solver::SolverError;
 
@@ -104,6 +105,8 @@ pub struct RotationStrain {
     scales: Vec<f64>,
     /// Scratch: the displacements.
     u: Vec<DVec3>,
+    /// Scratch: the second half of the pass's right side.
+    scratch: Vec<Padded>,
 }
 
 impl RotationStrain {
@@ -117,6 +120,7 @@ impl RotationStrain {
             loads: Vec::new(),
             net: vec![DVec3::ZERO; laplacian.gauges().len()],
             u: vec![DVec3::ZERO; rest.len()],
+            scratch: Vec::new(),
             centroid_modes: Vec::new(),
             drags: Vec::new(),
             rows_at: Vec::new(),
@@ -170,12 +174,15 @@ impl RotationStrain {
         let settling = age > SETTLED_ROWS * step && age > 1e-13;
         let due = !self.drags.is_empty() && (self.rows_at.len() != q.len() || age > ROWS_TURN || settling);
         self.updated_at = q.to_vec();
-        let drags = if due { &mut self.drags[..] } else { &mut [] };
-        self.pass.run(q, &self.loads, Some(self.laplacian.rhs_mut()), force, drags);
+        crate::threads::in_pool(|| {
+            let drags = if due { &mut self.drags[..] } else { &mut [] };
+            let rhs = RightSide { rhs: self.laplacian.rhs_mut(), scratch: &mut self.scratch };
+            self.pass.run(q, &self.loads, Some(rhs), force, drags);
+            self.solve_positions(q, positions, force);
+        });
         if due {
             self.rows_at = q.to_vec();
         }
-        self.solve_positions(q, positions, force);
         if self.stiffness.is_none() {
             self.stiffness = Some(self.load_stiffness(q, force));
         }
@@ -184,8 +191,11 @@ impl RotationStrain {
     /// Positions `x(q)` and the generalised force of the forces set last, alone: no drag rows and no
     /// load stiffness (for methods that keep their own, `rds`).
     pub fn reconstruct(&mut self, q: &[f64], positions: &mut [DVec3], force: &mut [f64]) {
-        self.pass.run(q, &self.loads, Some(self.laplacian.rhs_mut()), force, &mut []);
-        self.solve_positions(q, positions, force);
+        crate::threads::in_pool(|| {
+            let rhs = RightSide { rhs: self.laplacian.rhs_mut(), scratch: &mut self.scratch };
+            self.pass.run(q, &self.loads, Some(rhs), force, &mut []);
+            self.solve_positions(q, positions, force);
+        });
     }
 
     /// The generalised force `J(q)ᵀ f` of the per-vertex forces `f` (which become the forces set),

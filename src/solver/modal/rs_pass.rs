@@ -23,6 +23,14 @@
 //!
 //! Triangles go [`LANES`] at a time, every quantity a SIMD vector across them (compiled for the CPU's
 //! best instruction set, as in [`super::kernel`]); only the scatter of `b` is per triangle.
+//!
+//! **Two halves.** The chunks are cut in two halves, each summing its own force and drag rows and
+//! scattering into its own right side (the second into a scratch over the range of unknowns its
+//! triangles touch); the second half's sums are then added to the first's. With more than one thread
+//! ([`crate::threads`]) the halves run at once; on one they run in turn, so that the sums do not
+//! depend on the thread count.
+
+use std::ops::Range;
 
 use glam::DVec3;
 use pulp::Simd;
@@ -61,6 +69,20 @@ pub struct TrianglePass {
     modes: usize,
     /// Per chunk, `6m` rows: `W_t` (x, y, z) then `E_t` (ε₁₁, ε₂₂, ε₁₂), mode by mode.
     rows: Vec<Lanes>,
+    /// The first chunk of the second half (module documentation).
+    half: usize,
+    /// The unknowns the second half's triangles touch lie in this range.
+    second_unknowns: Range<usize>,
+}
+
+/// Where a pass writes the right side of the reconstruction: the system's own, and a scratch for
+/// the second half of the triangles (module documentation), kept between passes.
+#[derive(Debug)]
+pub struct RightSide<'a> {
+    /// One 3-vector per unknown.
+    pub rhs: &'a mut [Padded],
+    /// Resized as needed.
+    pub scratch: &'a mut Vec<Padded>,
 }
 
 /// The Jacobian rows of one vertex's position, and the adjoint moments that give them.
@@ -97,7 +119,21 @@ impl TrianglePass {
                 (chunk.frame[k][lane], chunk.frame[3 + k][lane]) = (frame[0][k], frame[1][k]);
             }
         }
-        let mut pass = Self { chunks: chunked, corners, triangles: moving.len(), modes: 0, rows: Vec::new() };
+        let half = chunked.len() / 2;
+        let touched = || chunked[half..].iter().flat_map(|c| c.unknowns.iter().flatten()).filter(|&&u| u != NONE);
+        let second_unknowns = match (touched().min(), touched().max()) {
+            (Some(&lo), Some(&hi)) => lo as usize..hi as usize + 1,
+            _ => 0..0,
+        };
+        let mut pass = Self {
+            chunks: chunked,
+            corners,
+            triangles: moving.len(),
+            modes: 0,
+            rows: Vec::new(),
+            half,
+            second_unknowns,
+        };
         pass.set_basis(rest, basis);
         pass
     }
@@ -195,40 +231,65 @@ impl TrianglePass {
         &self,
         q: &[f64],
         loads: &[Moments],
-        rhs: Option<&mut [Padded]>,
+        rhs: Option<RightSide<'_>>,
         force: &mut [f64],
         drags: &mut [DragRows],
     ) {
-        pulp::Arch::new().dispatch(Pass { pass: self, q, loads, rhs, force, drags });
+        let (mut rhs, mut scratch) = match rhs {
+            Some(RightSide { rhs, scratch }) => {
+                scratch.clear();
+                scratch.resize(self.second_unknowns.len(), Padded::ZERO);
+                (Some(rhs), Some(scratch))
+            }
+            None => (None, None),
+        };
+        let rows = &*drags;
+        let half = |chunks, rhs| pulp::Arch::new().dispatch(Pass { pass: self, q, loads, chunks, rhs, drags: rows });
+        let start = self.second_unknowns.start;
+        let (one, two) = crate::threads::join(
+            || half(0..self.half, rhs.as_deref_mut().map(|r| (r, 0))),
+            || half(self.half..self.chunks.len(), scratch.as_deref_mut().map(|s| (&mut s[..], start))),
+        );
+        if let (Some(rhs), Some(scratch)) = (rhs, scratch) {
+            rhs[self.second_unknowns.clone()].iter_mut().zip(scratch.iter()).for_each(|(b, s)| *b += *s);
+        }
+        let sums: Vec<f64> = one.iter().zip(&two).map(|(a, b)| a + b).collect();
+        force.copy_from_slice(&sums[..self.modes]);
+        for (drag, rows) in drags.iter_mut().zip(sums[self.modes..].chunks_exact(3 * self.modes)) {
+            drag.rows.copy_from_slice(rows);
+        }
     }
 }
 
-/// The arguments of [`TrianglePass::run`], for the dispatch to the best instruction set.
+/// The arguments of one half of [`TrianglePass::run`], for the dispatch to the best instruction set:
+/// its chunks, and its right side with the unknown at its start. It returns its sums: the force,
+/// then each drag's three rows.
 struct Pass<'a> {
     pass: &'a TrianglePass,
     q: &'a [f64],
     loads: &'a [Moments],
-    rhs: Option<&'a mut [Padded]>,
-    force: &'a mut [f64],
-    drags: &'a mut [DragRows],
+    chunks: Range<usize>,
+    rhs: Option<(&'a mut [Padded], usize)>,
+    drags: &'a [DragRows],
 }
 
 impl pulp::WithSimd for Pass<'_> {
-    type Output = ();
+    type Output = Vec<f64>;
 
     #[inline(always)]
-    fn with_simd<S: Simd>(self, simd: S) {
-        let Self { pass, q, loads, mut rhs, force, drags } = self;
+    fn with_simd<S: Simd>(self, simd: S) -> Vec<f64> {
+        let Self { pass, q, loads, chunks, mut rhs, drags } = self;
         let m = pass.modes;
         let groups = LANES / S::F64_LANES;
         let zero = simd.splat_f64s(0.0);
         let qs: Vec<S::f64s> = q.iter().map(|&x| simd.splat_f64s(x)).collect();
         // Accumulators, one SIMD vector per group and mode: the force, then each drag's three rows.
         let mut acc = vec![zero; m * groups * (1 + 3 * drags.len())];
-        if let Some(rhs) = rhs.as_deref_mut() {
+        if let Some((rhs, _)) = rhs.as_mut() {
             rhs.fill(Padded::ZERO);
         }
-        for (c, (chunk, load)) in pass.chunks.iter().zip(loads).enumerate() {
+        for c in chunks {
+            let (chunk, load) = (&pass.chunks[c], &loads[c]);
             let rows = &pass.rows[c * 6 * m..(c + 1) * 6 * m];
             let mut change = [[[0.0; LANES]; 3]; 3];
             for g in 0..groups {
@@ -255,22 +316,17 @@ impl pulp::WithSimd for Pass<'_> {
                     }
                 }
             }
-            if let Some(rhs) = rhs.as_deref_mut() {
+            if let Some((rhs, start)) = rhs.as_mut() {
                 for (k, out) in change.iter().enumerate() {
                     for (lane, &u) in chunk.unknowns[k].iter().enumerate() {
-                        if let Some(b) = rhs.get_mut(u as usize) {
+                        if let Some(b) = (u as usize).checked_sub(*start).and_then(|i| rhs.get_mut(i)) {
                             *b += Padded::from(DVec3::new(out[0][lane], out[1][lane], out[2][lane]));
                         }
                     }
                 }
             }
         }
-        let sums: Vec<f64> =
-            acc.chunks_exact(groups).map(|v| v.iter().map(|&x| simd.reduce_sum_f64s(x)).sum()).collect();
-        force.copy_from_slice(&sums[..m]);
-        for (drag, rows) in drags.iter_mut().zip(sums[m..].chunks_exact(3 * m)) {
-            drag.rows.copy_from_slice(rows);
-        }
+        acc.chunks_exact(groups).map(|v| v.iter().map(|&x| simd.reduce_sum_f64s(x)).sum()).collect()
     }
 }
 
