@@ -5,15 +5,15 @@
 //! which a sparse solve with several right sides splits its columns (the modal analysis's block
 //! solves, [`crate::linalg::SparseCholesky::solve_many`]), `mwts-rs`'s step runs the two halves
 //! of its triangle pass and of its reconstruction solve ([`join`], inside the pool: [`in_pool`]),
-//! and [`par`] hands the same count to faer for the eigen solver's dense products. Work that is
+//! `mwts`'s and `lma`'s the two halves of a large vertex pass, and [`par`] hands the same count to faer for the eigen solver's dense products. Work that is
 //! already one task per core (the evaluation's `--jobs`, the simulation and render threads of the
 //! viewer) is not split further by this setting.
 //!
 //! faer's blocked kernels group a split block's columns differently, so the modal analysis and the
 //! implicit solves agree across thread counts to round-off, not to the bit (tested in
 //! `tests/threads.rs`: the creature's eigenvalues to 1e-12, an implicit step of it to 1e-12).
-//! `mwts-rs`'s halves are summed in the same order on one thread as on two, so its steps agree to
-//! the bit (tested there too).
+//! The modal steps' halves are summed in the same order on one thread as on two, so their steps
+//! agree to the bit (tested there too).
 
 use std::sync::OnceLock;
 

@@ -60,22 +60,37 @@ fn a_newton_solve_of_the_discrete_shell_is_the_same_on_one_thread_and_on_two() {
 }
 
 #[test]
-fn a_mwts_rs_run_is_the_same_to_the_bit_on_one_thread_and_on_two() {
-    // The reconstruction's triangle pass runs in two halves and its solve in two halves of the
-    // elimination tree, on two threads at once or on one in turn: the same sums either way. The
-    // modes (equal across thread counts to round-off only) are computed once and shared.
+fn modal_runs_are_the_same_to_the_bit_on_one_thread_and_on_two() {
+    // `mwts-rs`: the reconstruction's triangle pass runs in two halves and its solve in two halves of
+    // the elimination tree; `mwts` at 32 modes (13k vertices × 32 modes, past the split's size): its
+    // vertex pass in two halves. On two threads at once or on one in turn: the same sums either way.
+    // The modes (equal across thread counts to round-off only) are computed once and shared.
     let cache = tempfile::tempdir().unwrap();
-    let run = |threads: &str| {
-        let args =
-            ["sim", "--scene", "creature", "--method", "mwts-rs", "--steps", "20", "--json", "--threads", threads];
-        let out = run_with_cache(&cache, &args, &[]);
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
-    };
-    let (one, two) = (run("1"), run("2"));
-    for key in ["final_energy", "bbox_min", "bbox_max", "area_change"] {
-        assert!(!one[key].is_null(), "{key} missing: {one}");
-        assert_eq!(one[key], two[key], "{key}");
+    for (method, modes) in [("mwts-rs", "solver.modes=4"), ("mwts", "solver.modes=32")] {
+        let run = |threads: &str| {
+            let args = [
+                "sim",
+                "--scene",
+                "creature",
+                "--method",
+                method,
+                "--set",
+                modes,
+                "--steps",
+                "20",
+                "--json",
+                "--threads",
+                threads,
+            ];
+            let out = run_with_cache(&cache, &args, &[]);
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+        };
+        let (one, two) = (run("1"), run("2"));
+        for key in ["final_energy", "bbox_min", "bbox_max", "area_change"] {
+            assert!(!one[key].is_null(), "{method}: {key} missing: {one}");
+            assert_eq!(one[key], two[key], "{method}: {key}");
+        }
     }
 }
 

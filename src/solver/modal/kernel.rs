@@ -8,6 +8,13 @@
 //! operation is a SIMD operation across vertices; the pass is compiled for the best instruction set
 //! the CPU has (AVX2 + FMA where available, chosen at run time; products and sums are written as
 //! fused multiply-adds, which is also one rounding fewer).
+//!
+//! A large pass (at least [`SPLIT`] vertex-modes) goes in two halves of the chunks, each summing its
+//! own force, the second's sums then added to the first's: at once on two threads where more than
+//! one is set ([`crate::threads`]), else in turn, so the result does not depend on the thread count.
+//! A small pass stays whole: handing half of it to another thread costs more than it saves.
+
+use std::ops::Range;
 
 use glam::DVec3;
 
@@ -34,6 +41,9 @@ impl ChunkedVectors {
     }
 }
 
+/// Passes of at least this many vertices × modes go in two halves (module documentation).
+pub const SPLIT: usize = 1 << 18;
+
 /// One pass: the positions and the modal force at `q`. `warp` selects MWTS; otherwise LMA.
 pub struct VertexPass<'a> {
     /// The modes.
@@ -56,23 +66,48 @@ impl VertexPass<'_> {
     /// Run the pass, compiled for the best instruction set of this CPU ([`pulp`]'s run-time dispatch
     /// inlines `with_simd` into a function built for it; a closure would not be inlined).
     pub fn run(self) {
-        pulp::Arch::new().dispatch(self);
+        let Self { basis, q, rest, forces, warp, positions, force } = self;
+        let total = rest.0.len();
+        let part =
+            |chunks, positions| pulp::Arch::new().dispatch(Part { basis, q, rest, forces, warp, chunks, positions });
+        if positions.len() * basis.modes() < SPLIT {
+            force.copy_from_slice(&part(0..total, positions));
+            return;
+        }
+        let half = total / 2;
+        let (first, second) = positions.split_at_mut((half * LANES).min(positions.len()));
+        let (one, two) = crate::threads::join(|| part(0..half, first), || part(half..total, second));
+        for ((g, a), b) in force.iter_mut().zip(one).zip(two) {
+            *g = a + b;
+        }
     }
 }
 
-impl pulp::WithSimd for VertexPass<'_> {
-    type Output = ();
+/// The chunks `chunks` of a [`VertexPass`], writing their `positions`; returns their force.
+struct Part<'a> {
+    basis: &'a ModalBasis,
+    q: &'a [f64],
+    rest: &'a ChunkedVectors,
+    forces: &'a ChunkedVectors,
+    warp: bool,
+    chunks: Range<usize>,
+    positions: &'a mut [DVec3],
+}
+
+impl pulp::WithSimd for Part<'_> {
+    type Output = Vec<f64>;
 
     #[inline(always)]
-    fn with_simd<S: Simd>(self, simd: S) {
-        let Self { basis, q, rest, forces, warp, positions, force } = self;
+    fn with_simd<S: Simd>(self, simd: S) -> Vec<f64> {
+        let Self { basis, q, rest, forces, warp, chunks, positions } = self;
         let m = basis.modes();
         // A chunk's LANES vertices go `S::F64_LANES` at a time (two groups with AVX2).
         let groups = LANES / S::F64_LANES;
         let zero = simd.splat_f64s(0.0);
         let qs: Vec<S::f64s> = q.iter().map(|&x| simd.splat_f64s(x)).collect();
         let mut acc = vec![zero; m * groups];
-        for (c, ((out, x), f)) in positions.chunks_mut(LANES).zip(&rest.0).zip(&forces.0).enumerate() {
+        for (c, out) in chunks.zip(positions.chunks_mut(LANES)) {
+            let (x, f) = (&rest.0[c], &forces.0[c]);
             let (phi, psi) = basis.chunk(c);
             for g in 0..groups {
                 let at = |row: &[f64; LANES]| S::as_simd_f64s(row).0[g];
@@ -110,9 +145,7 @@ impl pulp::WithSimd for VertexPass<'_> {
                 }
             }
         }
-        for (g, accj) in force.iter_mut().zip(acc.chunks_exact(groups)) {
-            *g = accj.iter().map(|&v| simd.reduce_sum_f64s(v)).sum();
-        }
+        acc.chunks_exact(groups).map(|accj| accj.iter().map(|&v| simd.reduce_sum_f64s(v)).sum()).collect()
     }
 }
 
@@ -169,12 +202,19 @@ mod tests {
     use crate::mesh::generate::grid;
     use crate::solver::modal::warp::{rotation, warp_operator};
 
-    /// The SIMD pass against the per-vertex matrix forms `x = X + (∫exp) Φq`, `g = Φᵀ Rᵀ f`, on a
-    /// mesh whose last chunk is partial and whose rotations run from tiny to past a half turn
-    /// (every branch of the coefficients: 7, 10 and 16 series terms and the closed form).
+    /// The SIMD pass against the per-vertex matrix forms `x = X + (∫exp) Φq`, `g = Φᵀ Rᵀ f`, on
+    /// meshes whose last chunk is partial and whose rotations run from tiny to past a half turn
+    /// (every branch of the coefficients: 7, 10 and 16 series terms and the closed form), one small
+    /// (a whole pass) and one large enough to go in two halves.
     #[test]
     fn pass_matches_the_per_vertex_matrix_forms() {
-        let mesh = grid([1.0, 0.3], [12, 2]).unwrap(); // 39 vertices: four full chunks and one of 7
+        // 39 vertices: four full chunks and one of 7; 87,591: 10,948 full chunks and one of 7.
+        for cells in [[12, 2], [300, 290]] {
+            pass_matches_the_per_vertex_matrix_forms_on(grid([1.0, 0.3], cells).unwrap());
+        }
+    }
+
+    fn pass_matches_the_per_vertex_matrix_forms_on(mesh: crate::mesh::TriMesh) {
         let n = mesh.vertex_count();
         assert_ne!(n % LANES, 0);
         let shapes: Vec<Vec<DVec3>> = (0..3i32)
@@ -184,6 +224,7 @@ mod tests {
             })
             .collect();
         let basis = ModalBasis::new(&mesh, vec![1.0, 2.0, 3.0], &shapes);
+        assert_eq!(n * 3 >= SPLIT, n > 1000, "{n} vertices");
         let forces: Vec<DVec3> = (0..n).map(|i| DVec3::new(0.2, -1.0, 0.1 * i as f64)).collect();
         let (rest, chunked) = (ChunkedVectors::new(mesh.positions(), n), ChunkedVectors::new(&forces, n));
         for scale in [1e-3, 0.1, 0.6, 2.0] {
