@@ -5,9 +5,9 @@
 //! which a sparse solve with several right sides splits its columns (the modal analysis's block
 //! solves, [`crate::linalg::SparseCholesky::solve_many`]), `mwts-rs`'s step runs the two halves
 //! of its triangle pass and of its reconstruction solve ([`join`], inside the pool: [`in_pool`]),
-//! `mwts`'s and `lma`'s the two halves of a large vertex pass, and [`par`] hands the same count to faer for the eigen solver's dense products. Work that is
-//! already one task per core (the evaluation's `--jobs`, the simulation and render threads of the
-//! viewer) is not split further by this setting.
+//! `mwts`'s and `lma`'s the two halves of a large vertex pass, and [`par`] hands the same count to
+//! faer for the eigen solver's dense products. The evaluation's `--jobs` run one case per job, and the
+//! viewer's simulation thread steps the solver; large modal steps of either share the pool's threads.
 //!
 //! faer's blocked kernels group a split block's columns differently, so the modal analysis and the
 //! implicit solves agree across thread counts to round-off, not to the bit (tested in
@@ -66,12 +66,13 @@ pub fn par() -> Par {
     }
 }
 
-/// Run `f` on one of the pool's threads when there are several (else here), so that the joins
-/// inside it hand their second half to another pool thread directly. A join called from outside the
-/// pool instead wakes a pool thread for the whole join and sleeps until it is done: on two cores,
-/// one wake-up more per join, and three threads on two cores.
-pub fn in_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
-    if threads() > 1 && rayon::current_thread_index().is_none() { rayon::scope(|_| f()) } else { f() }
+/// Run `f` on one of the pool's threads when there are several and `f` joins (`joins`), else
+/// here, so that the joins inside it hand their second half to another pool thread directly. A join
+/// called from outside the pool instead wakes a pool thread for the whole join and sleeps until it
+/// is done: on two cores, one wake-up more per join, and three threads on two cores. Work already in
+/// the pool (a modal analysis in the background) runs first: `f` waits for a pool thread to be free.
+pub fn in_pool<R: Send>(joins: bool, f: impl FnOnce() -> R + Send) -> R {
+    if joins && threads() > 1 && rayon::current_thread_index().is_none() { rayon::scope(|_| f()) } else { f() }
 }
 
 /// `(a(), b())`, at once on two pool threads when there are several (`rayon::join`), else in turn.

@@ -82,15 +82,46 @@ impl Compressed<u32> {
 
 /// The factor's lines: its rows (the forward substitution) and its columns last first (the backward
 /// one). With halves, the top's rows keep only their entries in the top; what they take from each
-/// half is in `from_halves` (one line per top row).
+/// half is in `from_halves` (one line per top row). Built only by [`Factor::new`], which checks that
+/// the halves do not meet: what makes solving them on two threads at once sound.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub(super) struct Factor<I> {
-    pub(super) rows: Compressed<I>,
-    pub(super) columns: Compressed<I>,
-    pub(super) from_halves: [Compressed<I>; 2],
+    rows: Compressed<I>,
+    columns: Compressed<I>,
+    from_halves: [Compressed<I>; 2],
+    /// The ends of the two halves: unknowns `0..a` and `a..b`, then the top.
+    halves: Option<[usize; 2]>,
 }
 
 impl Factor<u32> {
+    /// The factor whose strictly lower triangle has these `columns` (first to last), with `halves`
+    /// if no row of one half has an entry in the other half's columns (an order that keeps the
+    /// elimination tree guarantees it; if not, the factor has no halves).
+    pub(super) fn new(columns: Compressed<u32>, halves: Option<[usize; 2]>) -> Self {
+        let n = columns.start.len() - 1;
+        let mut per_row = vec![0usize; n + 1];
+        columns.index.iter().for_each(|&i| per_row[i as usize + 1] += 1);
+        for i in 0..n {
+            per_row[i + 1] += per_row[i];
+        }
+        let mut rows = Compressed { index: vec![0; per_row[n]], value: vec![0.0; per_row[n]], start: per_row.clone() };
+        for j in 0..n {
+            for p in columns.start[j]..columns.start[j + 1] {
+                let slot = &mut per_row[columns.index[p] as usize];
+                (rows.index[*slot], rows.value[*slot]) = (j as u32, columns.value[p]);
+                *slot += 1;
+            }
+        }
+        let half = |i: usize| halves.map_or(2, |[a, b]| usize::from(i >= a) + usize::from(i >= b));
+        let meet = (0..n).any(|i| half(i) < 2 && rows.line(i).any(|j| half(j) != half(i)));
+        debug_assert!(!meet, "the elimination tree's halves meet in the factor");
+        let halves = halves.filter(|&[a, b]| !meet && a <= b && b <= n);
+        let (rows, from_halves) = cut_top_rows(rows, halves.map_or(n, |[_, b]| b), half);
+        // The backward pass visits the columns last to first: stored in that order, it streams the
+        // factor forwards through memory as the forward pass does.
+        Self { rows, columns: columns.reversed(), from_halves, halves }
+    }
+
     /// The same lines with their indices in `I` (each must fit).
     pub(super) fn narrow<I: FactorIndex>(self) -> Factor<I> {
         let [first, second] = self.from_halves;
@@ -98,30 +129,74 @@ impl Factor<u32> {
             rows: self.rows.narrow(),
             columns: self.columns.narrow(),
             from_halves: [first.narrow(), second.narrow()],
+            halves: self.halves,
         }
     }
 }
 
-/// Both substitutions: forward by the rows, backward by the reversed columns. With `halves`, in
+impl<I> Factor<I> {
+    /// Unknowns.
+    pub(super) fn dim(&self) -> usize {
+        self.columns.start.len() - 1
+    }
+
+    /// Entries below the diagonal.
+    pub(super) fn entries(&self) -> usize {
+        self.columns.index.len()
+    }
+
+    /// The ends of the two halves (unknowns `0..a`, `a..b`), if it has them.
+    pub(super) fn halves(&self) -> Option<[usize; 2]> {
+        self.halves
+    }
+}
+
+/// The rows from `top` on (of a factor with `n` rows) cut into their entries in the top, kept in
+/// the rows, and those in each half (`half(j)` = 0 or 1; 2 for the top), one line per top row.
+fn cut_top_rows(
+    rows: Compressed<u32>,
+    top: usize,
+    half: impl Fn(usize) -> usize,
+) -> (Compressed<u32>, [Compressed<u32>; 2]) {
+    let n = rows.start.len() - 1;
+    // Parts 0 and 1: from each half; part 2: kept.
+    let mut parts: [Compressed<u32>; 3] = Default::default();
+    parts.iter_mut().for_each(|c| c.start.push(0));
+    for i in 0..n {
+        for p in rows.start[i]..rows.start[i + 1] {
+            let part = &mut parts[if i < top { 2 } else { half(rows.index[p] as usize) }];
+            part.index.push(rows.index[p]);
+            part.value.push(rows.value[p]);
+        }
+        let cut = if i < top { 2..3 } else { 0..3 };
+        parts[cut].iter_mut().for_each(|c| c.start.push(c.index.len()));
+    }
+    let [first, second, kept] = parts;
+    (kept, [first, second])
+}
+
+/// Both substitutions: forward by the rows, backward by the reversed columns. With halves, in
 /// phases (module documentation): forward, each half and what the top's rows take from it (on two
 /// threads if `parallel`), then the top; backward, the top, then each half. One thread runs the same
-/// phases in turn, so that the solution does not depend on the thread count.
+/// phases in turn, so that the solution does not depend on the thread count. `from_halves` holds one
+/// entry per top row each.
 pub(super) fn substitute<I, X>(
     factor: &Factor<I>,
     inverse_diagonal: &[f64],
     x: &mut X,
-    halves: Option<[usize; 2]>,
     from_halves: &mut [Vec<Padded>; 2],
     parallel: bool,
 ) where
     I: FactorIndex + Sync,
     X: ?Sized + IndexMut<usize, Output = Padded> + AsMut<[Padded]>,
 {
-    let n = inverse_diagonal.len();
+    let n = factor.dim();
+    assert_eq!(inverse_diagonal.len(), n, "one diagonal entry per unknown");
+    let halves = factor.halves;
     let [first, second] = from_halves;
     match halves {
         Some([a, b]) if parallel => {
-            let shared = Shared { x: x.as_mut().as_mut_ptr(), len: n, borrow: PhantomData };
+            let shared = Shared::new(x.as_mut());
             let pass = |factor, lines, reverse| {
                 avx2(Substitute { factor, lines, inverse_diagonal, x: &mut shared.clone(), reverse });
             };
@@ -169,14 +244,22 @@ fn add_from_halves<X: ?Sized + IndexMut<usize, Output = Padded>>(
 
 /// The solution as two threads see it at once while each solves its half of the elimination tree.
 ///
-/// Sound because the halves never meet (checked when the factor is built): in either
-/// substitution, a thread writes only its own half's unknowns and reads only those and the top's,
-/// and no thread writes the top's while the halves are solved. Every access is bounds-checked.
+/// Sound because the halves never meet ([`Factor::new`] checks it, and the columns are the rows'
+/// transpose): in either substitution, a thread writes only its own half's unknowns and reads only
+/// those and the top's, and no thread writes the top's while the halves are solved. Every access is
+/// checked against the slice it was made from, whose borrow it keeps.
 #[derive(Clone, Copy)]
 struct Shared<'a> {
     x: *mut Padded,
     len: usize,
     borrow: PhantomData<&'a mut [Padded]>,
+}
+
+impl<'a> Shared<'a> {
+    /// The view of `x`, borrowed for as long as the view lives.
+    fn new(x: &'a mut [Padded]) -> Self {
+        Self { x: x.as_mut_ptr(), len: x.len(), borrow: PhantomData }
+    }
 }
 
 // SAFETY: see the type's documentation: the threads' writes and reads never overlap.

@@ -9,7 +9,8 @@
 //! (four independent sums of fused multiply-adds, to hide their latency; each line's indices and
 //! values walked in fours together) and is stored once, and both stream their copy of the factor
 //! forwards through memory (the columns are stored last to first). Up to 65,536 unknowns the indices
-//! are 16-bit and the solution a fixed-size array, so the gathers need no bounds checks; larger
+//! are 16-bit and the solution a fixed-size array, so the gathers need no bounds checks (on one
+//! thread; the halves' gathers on two are checked); larger
 //! systems take 32-bit indices and checked gathers. The loops are compiled for AVX2 + FMA where the
 //! CPU has them ([`super::isa`]). A solve reads the factor twice and allocates nothing.
 //!
@@ -22,7 +23,7 @@
 //!
 //! **Two threads.** The minimum-degree order is relabelled, with the same factor, so that the
 //! unknowns come as two independent halves of the elimination tree and then their common ancestors
-//! ([`super::tree_split`]). With more than one thread ([`crate::threads`]) each substitution solves
+//! ([`super::tree_split`]), from [`LEAST_SPLIT`] unknowns on. With more than one thread ([`crate::threads`]) each substitution solves
 //! the halves at once and the top alone ([`super::substitution`]); each unknown is summed in the same
 //! order as on one thread, so the solution is the same to the bit.
 
@@ -38,6 +39,9 @@ use super::LinalgError;
 use super::padded::Padded;
 use super::substitution::{Compressed, Factor, substitute};
 use super::tree_split;
+
+/// Systems of fewer unknowns are not split into halves: a solve of them is too short to share.
+const LEAST_SPLIT: usize = 4096;
 
 /// Systems of at most this many unknowns get 16-bit indices and a fixed-size solution array.
 const SHORT: usize = 1 << 16;
@@ -55,8 +59,8 @@ impl std::fmt::Debug for Lines {
     /// The index width and sizes (not the 65,536-entry array).
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let (width, entries) = match self {
-            Lines::Short { factor, .. } => (16, factor.columns.index.len()),
-            Lines::Long { factor, .. } => (32, factor.columns.index.len()),
+            Lines::Short { factor, .. } => (16, factor.entries()),
+            Lines::Long { factor, .. } => (32, factor.entries()),
         };
         write!(f, "Lines {{ index_bits: {width}, entries_below_diagonal: {entries} }}")
     }
@@ -68,8 +72,6 @@ pub struct VectorCholesky {
     order: Vec<usize>,
     lines: Lines,
     inverse_diagonal: Vec<f64>,
-    /// The ends of the elimination tree's two independent halves (module documentation), if found.
-    halves: Option<[usize; 2]>,
     /// Per half, what each top row takes from it (`−Σ_j L_ij x_j`), during a solve.
     from_halves: [Vec<Padded>; 2],
 }
@@ -97,7 +99,8 @@ impl VectorCholesky {
         };
         let mut symbolic = symbolic_in(SymmetricOrdering::Amd)?;
         let mut halves = None;
-        if let (Some(split), Some(amd)) = (elimination_split(&symbolic), symbolic.perm()) {
+        let split = if n >= LEAST_SPLIT { elimination_split(&symbolic) } else { None };
+        if let (Some(split), Some(amd)) = (split, symbolic.perm()) {
             let forward: Vec<usize> = split.order.iter().map(|&k| amd.arrays().0[k]).collect();
             let mut inverse = vec![0; n];
             forward.iter().enumerate().for_each(|(k, &i)| inverse[i] = k);
@@ -126,7 +129,6 @@ impl VectorCholesky {
         let (start, row) = (l.col_ptr(), l.row_idx());
         let mut columns = Compressed { start: vec![0], ..Default::default() };
         let mut inverse_diagonal = Vec::with_capacity(n);
-        let mut per_row = vec![0usize; n + 1];
         for j in 0..n {
             let entries = start[j]..start[j + 1];
             if entries.is_empty() || row[start[j]] != j {
@@ -136,33 +138,11 @@ impl VectorCholesky {
             for p in start[j] + 1..start[j + 1] {
                 columns.index.push(row[p] as u32);
                 columns.value.push(values[p]);
-                per_row[row[p] + 1] += 1;
             }
             columns.start.push(columns.index.len());
         }
-        for i in 0..n {
-            per_row[i + 1] += per_row[i];
-        }
-        let mut rows = Compressed { index: vec![0; per_row[n]], value: vec![0.0; per_row[n]], start: per_row.clone() };
-        for j in 0..n {
-            for p in columns.start[j]..columns.start[j + 1] {
-                let slot = &mut per_row[columns.index[p] as usize];
-                (rows.index[*slot], rows.value[*slot]) = (j as u32, columns.value[p]);
-                *slot += 1;
-            }
-        }
-        // The halves must not meet (an order that keeps the tree would guarantee it): if they did,
-        // the solve stays on one thread.
-        let found = halves;
-        let half = |i: usize| found.map_or(2, |[a, b]| usize::from(i >= a) + usize::from(i >= b));
-        if halves.is_some() && (0..n).any(|i| half(i) < 2 && rows.line(i).any(|j| half(j) != half(i))) {
-            debug_assert!(false, "the elimination tree's halves meet in the factor");
-            halves = None;
-        }
-        let (rows, from_halves) = cut_top_rows(rows, halves.map_or(n, |[_, b]| b), half);
-        // The backward pass visits the columns last to first: stored in that order, it streams the
-        // factor forwards through memory as the forward pass does.
-        let factor = Factor { rows, columns: columns.reversed(), from_halves };
+        let factor = Factor::new(columns, halves);
+        let top = factor.halves().map_or(0, |[_, b]| n - b);
         let lines = if n <= short.min(SHORT) {
             let x = vec![Padded::ZERO; SHORT]
                 .into_boxed_slice()
@@ -172,14 +152,7 @@ impl VectorCholesky {
         } else {
             Lines::Long { factor, x: vec![Padded::ZERO; n] }
         };
-        let top = halves.map_or(0, |[_, b]| n - b);
-        Ok(Self {
-            order,
-            lines,
-            inverse_diagonal,
-            halves,
-            from_halves: [vec![Padded::ZERO; top], vec![Padded::ZERO; top]],
-        })
+        Ok(Self { order, lines, inverse_diagonal, from_halves: [vec![Padded::ZERO; top], vec![Padded::ZERO; top]] })
     }
 
     /// Number of unknowns.
@@ -196,8 +169,8 @@ impl VectorCholesky {
     /// Entries of the factor (with the diagonal).
     pub fn factor_entries(&self) -> usize {
         let below = match &self.lines {
-            Lines::Short { factor, .. } => factor.columns.index.len(),
-            Lines::Long { factor, .. } => factor.columns.index.len(),
+            Lines::Short { factor, .. } => factor.entries(),
+            Lines::Long { factor, .. } => factor.entries(),
         };
         below + self.dim()
     }
@@ -223,20 +196,19 @@ impl VectorCholesky {
     /// Solve `A x = b` in place (the halves on two threads where more than one is set).
     pub fn solve(&mut self) {
         let parallel = crate::threads::threads() > 1;
-        let Self { inverse_diagonal, halves, from_halves, lines, .. } = self;
+        let Self { inverse_diagonal, from_halves, lines, .. } = self;
         match lines {
-            Lines::Short { factor, x } => {
-                substitute(factor, inverse_diagonal, &mut **x, *halves, from_halves, parallel)
-            }
-            Lines::Long { factor, x } => {
-                substitute(factor, inverse_diagonal, &mut x[..], *halves, from_halves, parallel)
-            }
+            Lines::Short { factor, x } => substitute(factor, inverse_diagonal, &mut **x, from_halves, parallel),
+            Lines::Long { factor, x } => substitute(factor, inverse_diagonal, &mut x[..], from_halves, parallel),
         }
     }
 
     /// Whether the elimination tree was split into two halves a solve may run apart.
     pub fn has_halves(&self) -> bool {
-        self.halves.is_some()
+        match &self.lines {
+            Lines::Short { factor, .. } => factor.halves().is_some(),
+            Lines::Long { factor, .. } => factor.halves().is_some(),
+        }
     }
 }
 
@@ -258,30 +230,6 @@ fn elimination_split(
         }
     }
     tree_split::split(&parent, &work)
-}
-
-/// The rows from `top` on (of a factor with `n` rows) cut into their entries in the top, kept in
-/// the rows, and those in each half (`half(j)` = 0 or 1; 2 for the top), one line per top row.
-fn cut_top_rows(
-    rows: Compressed<u32>,
-    top: usize,
-    half: impl Fn(usize) -> usize,
-) -> (Compressed<u32>, [Compressed<u32>; 2]) {
-    let n = rows.start.len() - 1;
-    // Parts 0 and 1: from each half; part 2: kept.
-    let mut parts: [Compressed<u32>; 3] = Default::default();
-    parts.iter_mut().for_each(|c| c.start.push(0));
-    for i in 0..n {
-        for p in rows.start[i]..rows.start[i + 1] {
-            let part = &mut parts[if i < top { 2 } else { half(rows.index[p] as usize) }];
-            part.index.push(rows.index[p]);
-            part.value.push(rows.value[p]);
-        }
-        let cut = if i < top { 2..3 } else { 0..3 };
-        parts[cut].iter_mut().for_each(|c| c.start.push(c.index.len()));
-    }
-    let [first, second, kept] = parts;
-    (kept, [first, second])
 }
 
 #[cfg(test)]
@@ -343,8 +291,8 @@ mod tests {
 
     #[test]
     fn a_grid_splits_into_halves_solved_on_two_threads_as_on_one_to_the_bit() {
-        // A 60 × 60 grid's Laplacian with diagonals, plus a shift: its elimination tree has halves.
-        let side = 60;
+        // A 70 × 70 grid's Laplacian with diagonals, plus a shift: its elimination tree has halves.
+        let side = 70;
         let id = |i: usize, j: usize| i * side + j;
         let mut entries = Vec::new();
         for (i, j) in (0..side).flat_map(|i| (0..side).map(move |j| (i, j))) {
@@ -361,18 +309,19 @@ mod tests {
         let mut reference = crate::linalg::SparseCholesky::new(a.as_ref()).unwrap();
         reference.factor(a.as_ref()).unwrap();
         let mut chol = VectorCholesky::new(a.as_ref()).unwrap();
-        let [first, second] = chol.halves.expect("a grid has halves");
+        assert!(chol.has_halves(), "a grid has halves");
+        let Lines::Short { factor, .. } = &chol.lines else { panic!("16-bit indices") };
+        let [first, second] = factor.halves().unwrap();
         assert!(first > n / 4 && second - first > n / 4 && n - second < n / 10, "{first} {second} of {n}");
         let mut solutions = Vec::new();
         for parallel in [false, true] {
             let order = chol.order().to_vec();
             chol.rhs_mut().iter_mut().zip(&order).for_each(|(x, &i)| *x = b[i].into());
-            let VectorCholesky { inverse_diagonal, halves, from_halves, lines: Lines::Short { factor, x }, .. } =
-                &mut chol
+            let VectorCholesky { inverse_diagonal, from_halves, lines: Lines::Short { factor, x }, .. } = &mut chol
             else {
                 panic!("16-bit indices")
             };
-            substitute(factor, inverse_diagonal, &mut **x, *halves, from_halves, parallel);
+            substitute(factor, inverse_diagonal, &mut **x, from_halves, parallel);
             for axis in 0..3 {
                 let mut column: Vec<f64> = b.iter().map(|v| v[axis]).collect();
                 reference.solve(&mut column).unwrap();

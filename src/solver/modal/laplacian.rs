@@ -116,6 +116,11 @@ impl EdgeLaplacian {
         self.factor.dim()
     }
 
+    /// Whether a solve goes in two halves (of the factor's elimination tree).
+    pub fn splits(&self) -> bool {
+        self.factor.has_halves()
+    }
+
     /// Entries of the Cholesky factor.
     pub fn factor_entries(&self) -> usize {
         self.factor.factor_entries()

@@ -24,7 +24,7 @@
 //! Triangles go [`LANES`] at a time, every quantity a SIMD vector across them (compiled for the CPU's
 //! best instruction set, as in [`super::kernel`]); only the scatter of `b` is per triangle.
 //!
-//! **Two halves.** The chunks are cut in two halves, each summing its own force and drag rows and
+//! **Two halves.** From [`SPLIT`] triangles on, the chunks are cut in two halves, each summing its own force and drag rows and
 //! scattering into its own right side (the second into a scratch over the range of unknowns its
 //! triangles touch); the second half's sums are then added to the first's. With more than one thread
 //! ([`crate::threads`]) the halves run at once; on one they run in turn, so that the sums do not
@@ -40,6 +40,10 @@ use super::kernel::{coefficients, cross, rodrigues};
 use super::laplacian::NONE;
 use super::rotation::{barycentric_gradients, triangle_jacobian};
 use crate::linalg::padded::Padded;
+
+/// Passes over at least this many triangles go in two halves (module documentation); a smaller one
+/// stays whole: handing half of it to another thread would cost more than it saves.
+pub const SPLIT: usize = 4096;
 
 /// One value per triangle of a chunk.
 type Lanes = [f64; LANES];
@@ -119,7 +123,7 @@ impl TrianglePass {
                 (chunk.frame[k][lane], chunk.frame[3 + k][lane]) = (frame[0][k], frame[1][k]);
             }
         }
-        let half = chunked.len() / 2;
+        let half = if moving.len() >= SPLIT { chunked.len() / 2 } else { chunked.len() };
         let touched = || chunked[half..].iter().flat_map(|c| c.unknowns.iter().flatten()).filter(|&&u| u != NONE);
         let second_unknowns = match (touched().min(), touched().max()) {
             (Some(&lo), Some(&hi)) => lo as usize..hi as usize + 1,
@@ -170,6 +174,11 @@ impl TrianglePass {
                 }
             }
         }
+    }
+
+    /// Whether the pass goes in two halves (module documentation).
+    pub fn splits(&self) -> bool {
+        self.half < self.chunks.len()
     }
 
     /// Number of triangles in the pass.
@@ -224,8 +233,8 @@ impl TrianglePass {
             .collect()
     }
 
-    /// One pass at `q`: the right side `rhs` of the reconstruction (one 3-vector per unknown; not
-    /// computed if `None`), the generalised force `force` of the loads with moments `loads` (without
+    /// One pass at `q`: the right side `rhs` of the reconstruction (one 3-vector per unknown, with
+    /// the scratch for the second half; not computed if `None`), the generalised force `force` of the loads with moments `loads` (without
     /// the gauges' centroid terms), and the Jacobian rows of every drag in `drags`.
     pub fn run(
         &self,
@@ -246,14 +255,19 @@ impl TrianglePass {
         let rows = &*drags;
         let half = |chunks, rhs| pulp::Arch::new().dispatch(Pass { pass: self, q, loads, chunks, rhs, drags: rows });
         let start = self.second_unknowns.start;
-        let (one, two) = crate::threads::join(
-            || half(0..self.half, rhs.as_deref_mut().map(|r| (r, 0))),
-            || half(self.half..self.chunks.len(), scratch.as_deref_mut().map(|s| (&mut s[..], start))),
-        );
+        let (first_rhs, second_rhs) =
+            (rhs.as_deref_mut().map(|r| (r, 0)), scratch.as_deref_mut().map(|s| (&mut s[..], start)));
+        let first = || half(0..self.half, first_rhs);
+        let second = || half(self.half..self.chunks.len(), second_rhs);
+        let sums: Vec<f64> = if self.splits() {
+            let (one, two) = crate::threads::join(first, second);
+            one.iter().zip(&two).map(|(a, b)| a + b).collect()
+        } else {
+            first()
+        };
         if let (Some(rhs), Some(scratch)) = (rhs, scratch) {
             rhs[self.second_unknowns.clone()].iter_mut().zip(scratch.iter()).for_each(|(b, s)| *b += *s);
         }
-        let sums: Vec<f64> = one.iter().zip(&two).map(|(a, b)| a + b).collect();
         force.copy_from_slice(&sums[..self.modes]);
         for (drag, rows) in drags.iter_mut().zip(sums[self.modes..].chunks_exact(3 * self.modes)) {
             drag.rows.copy_from_slice(rows);
