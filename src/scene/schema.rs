@@ -331,6 +331,9 @@ pub struct Part {
     /// Modal methods: relative compliance of drag constraints.
     #[serde(default)]
     pub constraint_damping: Option<f64>,
+    /// `rds`: whether the static responses to body loads join the modes (1) or not (0).
+    #[serde(default)]
+    pub load_responses: Option<i64>,
     /// `rds`: modal-derivative directions kept.
     #[serde(default)]
     pub derivatives: Option<i64>,
@@ -359,6 +362,7 @@ impl Part {
         s.rayleigh_alpha = self.rayleigh_alpha.unwrap_or(s.rayleigh_alpha);
         s.rayleigh_beta = self.rayleigh_beta.unwrap_or(s.rayleigh_beta);
         s.constraint_damping = self.constraint_damping.or(s.constraint_damping);
+        s.load_responses = self.load_responses.or(s.load_responses);
         s.derivatives = self.derivatives.or(s.derivatives);
         s.cubature = self.cubature.or(s.cubature);
         s
@@ -405,6 +409,10 @@ pub struct SolverSettings {
     /// default 1e-2 if absent). Smaller follows drags and tracks more tightly.
     #[serde(default)]
     pub constraint_damping: Option<f64>,
+    /// `rds`: 1 (or absent): the static responses to a uniform acceleration along each axis join the
+    /// modes; 0: they do not. Signed so that a value outside 0–1 is refused by `rds`'s range.
+    #[serde(default)]
+    pub load_responses: Option<i64>,
     /// `rds`: modal-derivative directions kept beside the modes after mass-PCA pruning (absent: all
     /// pairs of the modes, at most four per mode). Signed so that a negative value is refused by
     /// `rds`'s range, naming its key, rather than by the parser.

@@ -174,7 +174,7 @@ impl RotationStrain {
         let settling = age > SETTLED_ROWS * step && age > 1e-13;
         let due = !self.drags.is_empty() && (self.rows_at.len() != q.len() || age > ROWS_TURN || settling);
         self.updated_at = q.to_vec();
-        crate::threads::in_pool(self.pass.splits() || self.laplacian.splits(), || {
+        crate::threads::in_pool(self.splits(), || {
             let drags = if due { &mut self.drags[..] } else { &mut [] };
             let rhs = RightSide { rhs: self.laplacian.rhs_mut(), scratch: &mut self.scratch };
             self.pass.run(q, &self.loads, Some(rhs), force, drags);
@@ -188,10 +188,16 @@ impl RotationStrain {
         }
     }
 
+    /// Whether a reconstruction has halves to run at once (its triangle pass or its solve), so it
+    /// runs on the pool ([`crate::threads::in_pool`]).
+    fn splits(&self) -> bool {
+        self.pass.splits() || self.laplacian.splits()
+    }
+
     /// Positions `x(q)` and the generalised force of the forces set last, alone: no drag rows and no
     /// load stiffness (for methods that keep their own, `rds`).
     pub fn reconstruct(&mut self, q: &[f64], positions: &mut [DVec3], force: &mut [f64]) {
-        crate::threads::in_pool(self.pass.splits() || self.laplacian.splits(), || {
+        crate::threads::in_pool(self.splits(), || {
             let rhs = RightSide { rhs: self.laplacian.rhs_mut(), scratch: &mut self.scratch };
             self.pass.run(q, &self.loads, Some(rhs), force, &mut []);
             self.solve_positions(q, positions, force);

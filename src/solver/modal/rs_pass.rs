@@ -24,8 +24,8 @@
 //! Triangles go [`LANES`] at a time, every quantity a SIMD vector across them (compiled for the CPU's
 //! best instruction set, as in [`super::kernel`]); only the scatter of `b` is per triangle.
 //!
-//! **Two halves.** From [`SPLIT`] triangles on, the chunks are cut in two halves, each summing its own force and drag rows and
-//! scattering into its own right side (the second into a scratch over the range of unknowns its
+//! **Two halves.** From [`SPLIT`] triangles on, the chunks are cut in two halves, each summing its
+//! own force and drag rows and scattering into its own right side (the second into a scratch over the range of unknowns its
 //! triangles touch); the second half's sums are then added to the first's. With more than one thread
 //! ([`crate::threads`]) the halves run at once; on one they run in turn, so that the sums do not
 //! depend on the thread count.

@@ -23,6 +23,13 @@
 //! central difference of the modes' reconstruction (steps of 1e-3 of the largest displacement; four
 //! reconstructions a pair, three for `i = j`).
 //!
+//! **Load responses.** The static responses to a uniform acceleration along each axis,
+//! `K⁻¹ M e_a` (one solve each with the same factor and refinement), join the modes when asked:
+//! the lowest modes span a shell's sag under its own weight only in part (`tests/rds.rs`; figures in
+//! BENCHMARKS.md, *`rds`: load responses*), and a body load is what gravity and the anchors'
+//! acceleration put on every shell. Made mass-orthonormal to the modes, they are
+//! first-order directions like them, and the derivative directions are made orthogonal to both.
+//!
 //! **Pruning.** Each `δ_ij` is scaled by `λ_1² / (λ_i λ_j)` (the amplitude of `q_i q_j` under a load,
 //! relative to the lowest mode's), made mass-orthogonal to the modes, and the span of the scaled set
 //! is cut to its leading `d` mass-principal directions (the eigenvectors of the Gram matrix
@@ -59,11 +66,14 @@ pub fn default_derivatives(modes: usize) -> usize {
     (m * (m + 1) / 2).min(4 * modes)
 }
 
-/// A reduced basis: mass-orthonormal vectors, the modes first.
+/// A reduced basis: mass-orthonormal vectors, the modes first, then the load responses, then the
+/// derivative directions (and drag responses while drags last).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReducedBasis {
     /// How many leading vectors are vibration modes.
     pub modes: usize,
+    /// How many vectors after the modes are static responses to body loads.
+    pub loads: usize,
     /// Per vector, its Rayleigh quotient `bᵀKb` (the eigenvalue for a mode), 1/s².
     pub stiffness: Vec<f64>,
     /// The vectors, per vertex (zero at anchors).
@@ -81,52 +91,109 @@ impl ReducedBasis {
         self.shapes.is_empty()
     }
 
+    /// How many leading vectors are first-order directions (modes and load responses); the rest are
+    /// second-order (derivative directions) or drag responses.
+    pub fn first_order(&self) -> usize {
+        self.modes + self.loads
+    }
+
     /// The basis in the layout of the modal methods (for the reconstruction and rotations), on `mesh`.
     pub fn modal(&self, mesh: &TriMesh) -> ModalBasis {
         ModalBasis::new(mesh, self.stiffness.clone(), &self.shapes)
     }
 }
 
-/// The modes of `analysis` and `derivatives` pruned derivative directions (fewer if the derivatives
-/// span fewer), reporting progress in `[0, 1]`.
+/// The modes of `analysis`, the static responses to body loads if `loads`, and `derivatives` pruned
+/// derivative directions (fewer if the derivatives span fewer), reporting progress in `[0, 1]`.
 pub fn build(
     problem: &ModalProblem<'_>,
     analysis: &ModalAnalysis,
+    loads: bool,
     derivatives: usize,
     progress: &dyn Fn(f32),
 ) -> Result<ReducedBasis, SolverError> {
     let m = analysis.basis.modes();
     let modes: Vec<Vec<DVec3>> = (0..m).map(|j| analysis.basis.shape(j)).collect();
-    let mut basis = ReducedBasis { modes: m, stiffness: analysis.basis.eigenvalues.clone(), shapes: modes };
+    let mut basis = ReducedBasis { modes: m, loads: 0, stiffness: analysis.basis.eigenvalues.clone(), shapes: modes };
     let derived = m.min(DERIVED_MODES);
+    let derivatives = if derived == 0 { 0 } else { derivatives };
     // Anchors that leave a rigid motion free (one row, turning about it) make `K` singular: the
-    // derivatives' solves have no answer, and the basis is the modes alone.
+    // static solves have no answer, and the basis is the modes alone.
     let mechanism = analysis.basis.eigenvalues.iter().any(|l| *l <= MECHANISM * analysis.lambda_max);
-    if derivatives == 0 || derived == 0 || analysis.rigid_modes > 0 || mechanism {
+    if (!loads && derivatives == 0) || analysis.rigid_modes > 0 || mechanism {
         return Ok(basis);
     }
     let factor = factored(problem)?;
-    let raw = derivatives_of(problem, &factor, &basis.shapes[..derived], progress)?;
-    let corrected = corrections(problem, analysis, derived, raw)?;
-    progress(0.9);
-    let lambda = &analysis.basis.eigenvalues;
-    let first = lambda[0].abs().max(f64::MIN_POSITIVE);
-    let scale = |i: usize| first / lambda[i].abs().max(first);
-    let weighted: Vec<Vec<DVec3>> = pairs(derived)
-        .zip(corrected)
-        .map(|((i, j), d)| d.iter().map(|v| *v * (scale(i) * scale(j))).collect())
-        .collect();
-    let kept = principal(problem.masses, &basis.shapes, weighted, derivatives);
+    if loads {
+        let kept = principal(problem.masses, &basis.shapes, body_load_responses(problem, &factor)?, 3);
+        basis.loads = kept.len();
+        extend(&mut basis, &factor, kept);
+    }
+    if derivatives > 0 {
+        let raw = derivatives_of(problem, &factor, &basis.shapes[..derived], progress)?;
+        let corrected = corrections(problem, analysis, derived, raw)?;
+        progress(0.9);
+        let lambda = &analysis.basis.eigenvalues;
+        let first = lambda[0].abs().max(f64::MIN_POSITIVE);
+        let scale = |i: usize| first / lambda[i].abs().max(first);
+        let weighted: Vec<Vec<DVec3>> = pairs(derived)
+            .zip(corrected)
+            .map(|((i, j), d)| d.iter().map(|v| *v * (scale(i) * scale(j))).collect())
+            .collect();
+        let kept = principal(problem.masses, &basis.shapes, weighted, derivatives);
+        extend(&mut basis, &factor, kept);
+    }
+    progress(1.0);
+    Ok(basis)
+}
+
+/// Append `shapes` to `basis` with their Rayleigh quotients `bᵀKb`.
+fn extend(basis: &mut ReducedBasis, factor: &Factored, shapes: Vec<Vec<DVec3>>) {
     let dofs = &factor.system.dofs;
     let (mut v, mut kv) = (vec![0.0; dofs.dofs()], vec![0.0; dofs.dofs()]);
-    for shape in kept {
+    for shape in shapes {
         dofs.gather(&shape, &mut v);
         factor.system.k.multiply(Some(&factor.k_values), &v, &mut kv);
         basis.stiffness.push(v.iter().zip(&kv).map(|(a, b)| a * b).sum());
         basis.shapes.push(shape);
     }
-    progress(1.0);
-    Ok(basis)
+}
+
+/// `K⁻¹ b` for the `count` columns of `b` (free DOFs, column after column), by the factor of
+/// `K − σM` and one step of iterative refinement against the unshifted `K`.
+fn solve_unshifted(factor: &Factored, b: &[f64], count: usize) -> Result<Vec<f64>, SolverError> {
+    let dim = factor.system.mass.len();
+    let mut x = b.to_vec();
+    factor.chol.solve_many(&mut x, count).map_err(numerical)?;
+    let mut correction = vec![0.0; count * dim];
+    let mut product = vec![0.0; dim];
+    for ((x, b), c) in x.chunks(dim).zip(b.chunks(dim)).zip(correction.chunks_mut(dim)) {
+        factor.system.k.multiply(Some(&factor.k_values), x, &mut product);
+        c.iter_mut().zip(b.iter().zip(&product)).for_each(|(c, (b, kx))| *c = b - kx);
+    }
+    factor.chol.solve_many(&mut correction, count).map_err(numerical)?;
+    x.iter_mut().zip(&correction).for_each(|(x, c)| *x += c);
+    Ok(x)
+}
+
+/// The static responses `K⁻¹ M e_a` to a uniform acceleration along each axis, per vertex, each of
+/// unit mass norm.
+fn body_load_responses(problem: &ModalProblem<'_>, factor: &Factored) -> Result<Vec<Vec<DVec3>>, SolverError> {
+    let (dofs, mass) = (&factor.system.dofs, &factor.system.mass);
+    let dim = mass.len();
+    let mut rhs = vec![0.0; 3 * dim];
+    for (a, column) in rhs.chunks_mut(dim).enumerate() {
+        column.iter_mut().zip(mass).skip(a).step_by(3).for_each(|(f, m)| *f = *m);
+    }
+    let x = solve_unshifted(factor, &rhs, 3)?;
+    Ok(x.chunks(dim)
+        .map(|column| {
+            let norm = column.iter().zip(mass).map(|(x, m)| m * x * x).sum::<f64>().sqrt().max(f64::MIN_POSITIVE);
+            let mut full = vec![DVec3::ZERO; problem.mesh.vertex_count()];
+            dofs.scatter_add(column, 1.0 / norm, &mut full);
+            full
+        })
+        .collect())
 }
 
 /// The pairs `(i, j)`, `i ≤ j < n`, in the order the derivatives are stored.
@@ -184,22 +251,13 @@ pub fn derivatives_of(
         }
         progress(0.4 * (j + 1) as f32 / n as f32);
     }
-    // ψ = K⁻¹ rhs, one refinement step against the unshifted K.
-    let mut psi = rhs.clone();
-    factor.chol.solve_many(&mut psi, count).map_err(numerical)?;
-    let mut correction = vec![0.0; count * dim];
-    for k in 0..count {
-        let (p, r) = (&psi[k * dim..(k + 1) * dim], &rhs[k * dim..(k + 1) * dim]);
-        asm.multiply(Some(&factor.k_values), p, &mut product);
-        correction[k * dim..(k + 1) * dim].iter_mut().zip(r.iter().zip(&product)).for_each(|(c, (r, kp))| *c = r - kp);
-    }
-    factor.chol.solve_many(&mut correction, count).map_err(numerical)?;
+    let psi = solve_unshifted(factor, &rhs, count)?;
     progress(0.6);
-    Ok((0..count)
-        .map(|k| {
+    Ok(psi
+        .chunks(dim)
+        .map(|column| {
             let mut full = vec![DVec3::ZERO; rest.len()];
-            let column: Vec<f64> = (0..dim).map(|d| psi[k * dim + d] + correction[k * dim + d]).collect();
-            dofs.scatter_add(&column, 1.0, &mut full);
+            dofs.scatter_add(column, 1.0, &mut full);
             full
         })
         .collect())
@@ -399,12 +457,12 @@ mod tests {
     }
 
     #[test]
-    fn the_modes_come_first_unchanged_and_the_basis_is_mass_orthonormal() {
+    fn the_modes_come_first_unchanged_and_the_basis_with_its_load_responses_is_mass_orthonormal() {
         let (mesh, anchors, masses) = clamped(v_beam(1.0, 0.2, 90.0, [12, 4]).unwrap());
         let p = problem(&mesh, &anchors, &masses, 4);
         let analysis = analyse(&p, &|_| {}).unwrap();
-        let basis = build(&p, &analysis, 7, &|_| {}).unwrap();
-        assert_eq!((basis.modes, basis.len()), (4, 11));
+        let basis = build(&p, &analysis, true, 7, &|_| {}).unwrap();
+        assert_eq!((basis.modes, basis.loads, basis.len()), (4, 3, 14));
         for j in 0..4 {
             assert_eq!(basis.shapes[j], analysis.basis.shape(j), "mode {j}");
         }
@@ -421,7 +479,7 @@ mod tests {
         for v in &anchors {
             assert!(basis.shapes.iter().all(|s| s[*v] == DVec3::ZERO), "anchored vertex {v} moves");
         }
-        // The derivative directions are much stiffer than the modes they come from.
+        // The load responses and derivative directions are stiffer than the lowest mode.
         assert!(basis.stiffness[4..].iter().all(|k| *k > basis.stiffness[0]), "{:?}", basis.stiffness);
     }
 }

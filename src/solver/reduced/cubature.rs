@@ -15,8 +15,9 @@
 //! [`TOLERANCE`] or `S` has the requested size. Candidates are every element up to [`POOL`], else a
 //! fixed random sample of that many.
 //!
-//! **Poses.** The modes' coordinates are drawn normal with standard deviation `√(λ₁/λ_k)` (equal
-//! expected energy), scaled so the linear displacement's largest vertex moves `d`; the derivative
+//! **Poses.** The first-order coordinates (the modes' and the load responses') are drawn normal with
+//! standard deviation `√(λ₁/λ_k)` (equal expected energy, `λ_k` the Rayleigh quotient), scaled so the
+//! linear displacement's largest vertex moves `d`; the derivative
 //! directions' likewise, scaled to `d²/L` (they are second order), with `L` the rest shape's
 //! diagonal and `d/L` cycling through [`AMPLITUDES`]. Poses drawn with another seed measure the
 //! error on poses the fit has not seen ([`relative_errors`]).
@@ -53,7 +54,7 @@ pub fn poses(basis: &ReducedBasis, rest: &[DVec3], count: usize, seed: u64) -> V
         rest.iter().fold((DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
     let diagonal = (hi - lo).length();
     let mut rng = Rng(seed | 1);
-    let groups = [0..basis.modes, basis.modes..basis.len()];
+    let groups = [0..basis.first_order(), basis.first_order()..basis.len()];
     (0..count)
         .map(|p| {
             let d = AMPLITUDES[p % AMPLITUDES.len()] * diagonal;
@@ -228,7 +229,7 @@ mod tests {
         let p =
             ModalProblem { mesh: &mesh, anchors: &anchors, masses: &masses, stiffness, modes: 3, keep_rigid: false };
         let analysis = analyse(&p, &|_| {}).unwrap();
-        let b = basis::build(&p, &analysis, 4, &|_| {}).unwrap();
+        let b = basis::build(&p, &analysis, false, 4, &|_| {}).unwrap();
         let mut shell = ReducedShell::new(&mesh, &anchors, stiffness, &b).unwrap();
         let rest = mesh.positions();
         let c = &super::poses(&b, rest, 4, 17)[3];

@@ -11,6 +11,9 @@
 //! backward Euler step `c⁺ − c − hv + hD(c⁺ − c) = −h² ∇Π(c⁺)`; Newton with a backtracking line
 //! search finds it (a few iterations a step; up to `solver.iterations`), and `v⁺ = (c⁺ − c)/h`.
 //!
+//! **Basis.** The modes, the static responses to body loads (`solver.load_responses`, default 1)
+//! and the derivative directions (`solver.derivatives`), [`super::basis`].
+//!
 //! **Drags** are stiff springs ([`super::springs`]); while position drags last, the static responses
 //! to the dragged vertices join the basis, as in the modal methods.
 //!
@@ -62,6 +65,21 @@ const DERIVATIVES: ParamSpec = ParamSpec {
     .in_scene("solver.derivatives")
 };
 
+/// Whether the static responses to body loads join the modes.
+const LOAD_RESPONSES: ParamSpec = ParamSpec {
+    integer: true,
+    ..ParamSpec::linear(
+        "load_responses",
+        "load responses",
+        "",
+        "1: the static responses to a uniform acceleration along each axis join the modes (a shell's sag under \
+         its weight); 0: the modes alone (recomputed in the background).",
+        0.0,
+        1.0,
+    )
+    .in_scene("solver.load_responses")
+};
+
 /// The cubature's size.
 const CUBATURE: ParamSpec = ParamSpec {
     integer: true,
@@ -86,8 +104,9 @@ const PARAMS: &[Param<Rds>] = &[
     Param::new(RAYLEIGH_ALPHA, |m| m.settings.alpha, |m, v| m.settings.alpha = v, Redo::Nothing),
     Param::new(RAYLEIGH_BETA, |m| m.settings.beta, |m, v| m.settings.beta = v, Redo::Nothing),
     Param::new(MODES, |m| m.request.modes as f64, |m, v| m.request.modes = v as usize, Redo::Modes),
-    Param::new(DERIVATIVES, |m| m.derivatives as f64, |m, v| m.derivatives = v as usize, Redo::Modes),
-    Param::new(CUBATURE, |m| m.cubature as f64, |m, v| m.cubature = v as usize, Redo::Modes),
+    Param::new(LOAD_RESPONSES, |m| f64::from(u8::from(m.sizes.loads)), |m, v| m.sizes.loads = v > 0.5, Redo::Modes),
+    Param::new(DERIVATIVES, |m| m.sizes.derivatives as f64, |m, v| m.sizes.derivatives = v as usize, Redo::Modes),
+    Param::new(CUBATURE, |m| m.sizes.cubature as f64, |m, v| m.sizes.cubature = v as usize, Redo::Modes),
     Param::new(STEP, |m| m.settings.step, |m, v| m.settings.step = v, Redo::Nothing),
     Param::new(
         ITERATIONS_SPEC,
@@ -143,7 +162,7 @@ impl Built {
         let analysis = request.run(&|f| progress(0.5 * f))?;
         let masses = request.masses();
         let problem = request.problem(&masses);
-        let base = basis::build(&problem, &analysis, sizes.derivatives, &|f| progress(0.5 + 0.3 * f))?;
+        let base = basis::build(&problem, &analysis, sizes.loads, sizes.derivatives, &|f| progress(0.5 + 0.3 * f))?;
         let mut shell = ReducedShell::new(&request.mesh, &request.anchors, request.stiffness, &base)?;
         if sizes.cubature > 0 {
             let rest = request.mesh.positions();
@@ -177,9 +196,11 @@ impl Built {
     }
 }
 
-/// The sizes a basis is built to.
+/// What a basis is built of beside the modes, and its cubature.
 #[derive(Debug, Clone, Copy)]
 struct Sizes {
+    /// Whether the static responses to body loads join the modes.
+    loads: bool,
     /// Derivative directions.
     derivatives: usize,
     /// Cubature elements (0: every element).
@@ -189,8 +210,7 @@ struct Sizes {
 /// The reduced discrete shell.
 pub struct Rds {
     request: Request,
-    derivatives: usize,
-    cubature: usize,
+    sizes: Sizes,
     built: Built,
     settings: Settings,
     loads: Vec<DVec3>,
@@ -228,14 +248,16 @@ impl Rds {
         let s = &setup.scene.solver;
         let request = Request::of(setup, Cache::from_env());
         // In range: checked above.
-        let derivatives = s.derivatives.map_or_else(|| default_derivatives(s.modes), |d| d.max(0) as usize);
-        let cubature = s.cubature.map_or(0, |c| c.max(0) as usize);
-        let built = Built::of(&request, Sizes { derivatives, cubature }, &|_| {}).map_err(|e| named(e, RDS.name))?;
+        let sizes = Sizes {
+            loads: s.load_responses.is_none_or(|l| l > 0),
+            derivatives: s.derivatives.map_or_else(|| default_derivatives(s.modes), |d| d.max(0) as usize),
+            cubature: s.cubature.map_or(0, |c| c.max(0) as usize),
+        };
+        let built = Built::of(&request, sizes, &|_| {}).map_err(|e| named(e, RDS.name))?;
         let r = built.basis.len();
         Ok(Self {
             request,
-            derivatives,
-            cubature,
+            sizes,
             built,
             settings: Settings {
                 step: s.step.unwrap_or(1.0 / 30.0),
@@ -392,7 +414,7 @@ impl Rds {
 
     fn recompute(&mut self) {
         let request = self.request.clone();
-        let sizes = Sizes { derivatives: self.derivatives, cubature: self.cubature };
+        let sizes = self.sizes;
         let work = move |report: &dyn Fn(f32)| Built::of(&request, sizes, report);
         self.pending = Some(Background::start("shellwarp-rds-basis", "basis", &self.generation, SETTLE, work));
     }
@@ -448,7 +470,7 @@ impl Rds {
             self.response = Some(response);
             let augmented = augmented?;
             let shapes = (0..augmented.modes()).map(|j| augmented.shape(j)).collect();
-            ReducedBasis { modes: base.modes, stiffness: augmented.eigenvalues.clone(), shapes }
+            ReducedBasis { modes: base.modes, loads: base.loads, stiffness: augmented.eigenvalues.clone(), shapes }
         };
         let cubature = self.built.shell.cubature().cloned();
         let built = Built::with(&self.request, base, basis, cubature)?;
@@ -585,11 +607,11 @@ impl Solver for Rds {
 
     fn progress(&self) -> Option<Progress> {
         self.pending.as_ref().map(|p| Progress {
-            label: match self.cubature {
-                0 => format!("computing {} modes and {} derivatives", self.request.modes, self.derivatives),
+            label: match self.sizes.cubature {
+                0 => format!("computing {} modes and {} derivatives", self.request.modes, self.sizes.derivatives),
                 n => format!(
                     "computing {} modes, {} derivatives and a {n}-element cubature",
-                    self.request.modes, self.derivatives
+                    self.request.modes, self.sizes.derivatives
                 ),
             },
             fraction: p.fraction(),
@@ -604,7 +626,8 @@ impl Solver for Rds {
         let (base, basis) = (&self.built.base, &self.built.basis);
         vec![
             ("active modes", base.modes as f64),
-            ("derivative directions", (base.len() - base.modes) as f64),
+            ("load responses", base.loads as f64),
+            ("derivative directions", (base.len() - base.first_order()) as f64),
             ("drag modes", (basis.len() - base.len()) as f64),
             ("cubature elements", self.cubature().map_or(0, |c| c.elements.len()) as f64),
             ("cubature training error", self.cubature().map_or(0.0, |c| c.training_error)),
