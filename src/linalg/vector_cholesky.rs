@@ -10,8 +10,8 @@
 //! values walked in fours together) and is stored once, and both stream their copy of the factor
 //! forwards through memory (the columns are stored last to first). Up to 65,536 unknowns the indices
 //! are 16-bit and the solution a fixed-size array, so the gathers need no bounds checks (on one
-//! thread; the halves' gathers on two are checked); larger
-//! systems take 32-bit indices and checked gathers. The loops are compiled for AVX2 + FMA where the
+//! thread; the halves' gathers on two are checked); larger systems take 32-bit indices and checked
+//! gathers. The loops are compiled for AVX2 + FMA where the
 //! CPU has them ([`super::isa`]). A solve reads the factor twice and allocates nothing.
 //!
 //! On the creature's Laplacian, streaming the backward pass forwards and gathering without bounds checks or
@@ -23,9 +23,10 @@
 //!
 //! **Two threads.** The minimum-degree order is relabelled, with the same factor, so that the
 //! unknowns come as two independent halves of the elimination tree and then their common ancestors
-//! ([`super::tree_split`]), from [`LEAST_SPLIT`] unknowns on. With more than one thread ([`crate::threads`]) each substitution solves
-//! the halves at once and the top alone ([`super::substitution`]); each unknown is summed in the same
-//! order as on one thread, so the solution is the same to the bit.
+//! ([`super::tree_split`]), from [`LEAST_SPLIT`] unknowns on. With more than one thread
+//! ([`crate::threads`]) each substitution solves the halves at once and the top alone
+//! ([`super::substitution`]); each unknown is summed in the same order as on one thread, so the
+//! solution is the same to the bit.
 
 use faer::perm::PermRef;
 use faer::sparse::SparseColMatRef;
