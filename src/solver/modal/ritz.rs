@@ -60,7 +60,12 @@ pub fn dragged_groups(drags: &DragSet) -> Vec<Vec<usize>> {
 impl StaticResponse {
     /// Assemble and factor the problem's shifted stiffness.
     pub fn new(problem: &ModalProblem<'_>) -> Result<Self, SolverError> {
-        Ok(Self { factored: factored(problem)? })
+        Ok(Self::of(factored(problem)?))
+    }
+
+    /// Around a factor already made ([`factored`]).
+    pub fn of(factored: Factored) -> Self {
+        Self { factored }
     }
 
     /// `base` with the Ritz vectors of the static responses to unit forces on each of `groups` (their

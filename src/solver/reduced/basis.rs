@@ -104,14 +104,15 @@ impl ReducedBasis {
 }
 
 /// The modes of `analysis`, the static responses to body loads if `loads`, and `derivatives` pruned
-/// derivative directions (fewer if the derivatives span fewer), reporting progress in `[0, 1]`.
+/// derivative directions (fewer if the derivatives span fewer), reporting progress in `[0, 1]`; with
+/// the factor of `K − σM` if one was made, for the drags' static responses to reuse.
 pub fn build(
     problem: &ModalProblem<'_>,
     analysis: &ModalAnalysis,
     loads: bool,
     derivatives: usize,
     progress: &dyn Fn(f32),
-) -> Result<ReducedBasis, SolverError> {
+) -> Result<(ReducedBasis, Option<Factored>), SolverError> {
     let m = analysis.basis.modes();
     let modes: Vec<Vec<DVec3>> = (0..m).map(|j| analysis.basis.shape(j)).collect();
     let mut basis = ReducedBasis { modes: m, loads: 0, stiffness: analysis.basis.eigenvalues.clone(), shapes: modes };
@@ -121,7 +122,7 @@ pub fn build(
     // static solves have no answer, and the basis is the modes alone.
     let mechanism = analysis.basis.eigenvalues.iter().any(|l| *l <= MECHANISM * analysis.lambda_max);
     if (!loads && derivatives == 0) || analysis.rigid_modes > 0 || mechanism {
-        return Ok(basis);
+        return Ok((basis, None));
     }
     let factor = factored(problem)?;
     if loads {
@@ -144,7 +145,7 @@ pub fn build(
         extend(&mut basis, &factor, kept);
     }
     progress(1.0);
-    Ok(basis)
+    Ok((basis, Some(factor)))
 }
 
 /// Append `shapes` to `basis` with their Rayleigh quotients `bᵀKb`.
@@ -461,7 +462,7 @@ mod tests {
         let (mesh, anchors, masses) = clamped(v_beam(1.0, 0.2, 90.0, [12, 4]).unwrap());
         let p = problem(&mesh, &anchors, &masses, 4);
         let analysis = analyse(&p, &|_| {}).unwrap();
-        let basis = build(&p, &analysis, true, 7, &|_| {}).unwrap();
+        let (basis, _) = build(&p, &analysis, true, 7, &|_| {}).unwrap();
         assert_eq!((basis.modes, basis.loads, basis.len()), (4, 3, 14));
         for j in 0..4 {
             assert_eq!(basis.shapes[j], analysis.basis.shape(j), "mode {j}");

@@ -15,7 +15,9 @@
 //! and the derivative directions (`solver.derivatives`), [`super::basis`].
 //!
 //! **Drags** are stiff springs ([`super::springs`]); while position drags last, the static responses
-//! to the dragged vertices join the basis, as in the modal methods.
+//! to the dragged vertices join the basis, as in the modal methods. They are solved with the factor
+//! of `K − σM` the basis was built with (the load responses and derivatives need it), kept with the
+//! basis: a first drag then costs no factorisation.
 //!
 //! **Cubature.** With `solver.cubature` above 0 the energy is summed over an optimised cubature
 //! ([`super::cubature`]) fitted to the base basis after it is built (in the background like it);
@@ -153,6 +155,9 @@ struct Built {
     shell: ReducedShell,
     /// The rest reduced stiffness `K₀ = Jᵀ K J` at `c = 0`.
     rest: DMatrix<f64>,
+    /// The shell's factored stiffness for the drags' static responses: the one the basis was built
+    /// with, else made at the first drag.
+    response: Option<StaticResponse>,
 }
 
 impl Built {
@@ -162,14 +167,16 @@ impl Built {
         let analysis = request.run(&|f| progress(0.5 * f))?;
         let masses = request.masses();
         let problem = request.problem(&masses);
-        let base = basis::build(&problem, &analysis, sizes.loads, sizes.derivatives, &|f| progress(0.5 + 0.3 * f))?;
+        let (base, factor) =
+            basis::build(&problem, &analysis, sizes.loads, sizes.derivatives, &|f| progress(0.5 + 0.3 * f))?;
         let mut shell = ReducedShell::new(&request.mesh, &request.anchors, request.stiffness, &base)?;
         if sizes.cubature > 0 {
             let rest = request.mesh.positions();
             let fitted = cubature::fit(&mut shell, &base, rest, sizes.cubature, &|f| progress(0.8 + 0.2 * f));
             shell.set_cubature(Some(fitted));
         }
-        let built = Self::around(request, base.clone(), base, shell);
+        let mut built = Self::around(request, base.clone(), base, shell);
+        built.response = factor.map(StaticResponse::of);
         progress(1.0);
         Ok(built)
     }
@@ -192,7 +199,7 @@ impl Built {
         let zero = vec![0.0; basis.len()];
         let j = shell.jacobian(&zero);
         let rest = shell.projected_hessian(request.mesh.positions(), &j);
-        Self { base, basis, shell, rest }
+        Self { base, basis, shell, rest, response: None }
     }
 }
 
@@ -224,8 +231,6 @@ pub struct Rds {
     steps: u64,
     pending: Option<Background<Built>>,
     generation: Generation,
-    /// The shell's factored stiffness for the drags' static responses (built at the first drag).
-    response: Option<StaticResponse>,
     /// The groups of dragged vertices whose responses are in the basis, and the drag revision the
     /// basis was last fitted to.
     groups: Vec<Vec<usize>>,
@@ -277,7 +282,6 @@ impl Rds {
             steps: 0,
             pending: None,
             generation: Generation::default(),
-            response: None,
             groups: Vec::new(),
             drag_revision: None,
         })
@@ -439,7 +443,7 @@ impl Rds {
     fn swap(&mut self, result: Result<Built, SolverError>) -> Result<(), SolverError> {
         self.pending = None;
         let built = result.map_err(|e| named(e, RDS.name))?;
-        (self.response, self.groups, self.drag_revision) = (None, Vec::new(), None);
+        (self.groups, self.drag_revision) = (Vec::new(), None);
         self.carry(built);
         Ok(())
     }
@@ -461,19 +465,20 @@ impl Rds {
         let basis = if groups.is_empty() {
             base.clone()
         } else {
-            let response = match self.response.take() {
+            let response = match self.built.response.take() {
                 Some(response) => response,
                 None => StaticResponse::new(&self.request.problem(&self.request.masses()))?,
             };
             let mesh = &self.request.mesh;
             let augmented = response.augment(&base.modal(mesh), mesh, &groups);
-            self.response = Some(response);
+            self.built.response = Some(response);
             let augmented = augmented?;
             let shapes = (0..augmented.modes()).map(|j| augmented.shape(j)).collect();
             ReducedBasis { modes: base.modes, loads: base.loads, stiffness: augmented.eigenvalues.clone(), shapes }
         };
         let cubature = self.built.shell.cubature().cloned();
-        let built = Built::with(&self.request, base, basis, cubature)?;
+        let mut built = Built::with(&self.request, base, basis, cubature)?;
+        built.response = self.built.response.take();
         self.carry(built);
         self.groups = groups;
         Ok(())
