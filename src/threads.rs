@@ -80,6 +80,14 @@ pub fn join<RA: Send, RB: Send>(a: impl FnOnce() -> RA + Send, b: impl FnOnce() 
     if threads() > 1 { rayon::join(a, b) } else { (a(), b()) }
 }
 
+/// The sums of the two halves of one pass, `a()[i] + b()[i]` (run by [`join`]): the halves are the
+/// same on one thread and on several, and so, added in this one order, are the sums.
+pub fn join_sum(a: impl FnOnce() -> Vec<f64> + Send, b: impl FnOnce() -> Vec<f64> + Send) -> Vec<f64> {
+    let (mut one, two) = join(a, b);
+    one.iter_mut().zip(&two).for_each(|(x, y)| *x += y);
+    one
+}
+
 /// Every core this process may run on.
 fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())

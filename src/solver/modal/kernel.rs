@@ -76,10 +76,7 @@ impl VertexPass<'_> {
         }
         let half = total / 2;
         let (first, second) = positions.split_at_mut((half * LANES).min(positions.len()));
-        let (one, two) = crate::threads::join(|| part(0..half, first), || part(half..total, second));
-        for ((g, a), b) in force.iter_mut().zip(one).zip(two) {
-            *g = a + b;
-        }
+        force.copy_from_slice(&crate::threads::join_sum(|| part(0..half, first), || part(half..total, second)));
     }
 }
 

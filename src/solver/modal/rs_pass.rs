@@ -260,12 +260,7 @@ impl TrianglePass {
             (rhs.as_deref_mut().map(|r| (r, 0)), scratch.as_deref_mut().map(|s| (&mut s[..], start)));
         let first = || half(0..self.half, first_rhs);
         let second = || half(self.half..self.chunks.len(), second_rhs);
-        let sums: Vec<f64> = if self.splits() {
-            let (one, two) = crate::threads::join(first, second);
-            one.iter().zip(&two).map(|(a, b)| a + b).collect()
-        } else {
-            first()
-        };
+        let sums = if self.splits() { crate::threads::join_sum(first, second) } else { first() };
         if let (Some(rhs), Some(scratch)) = (rhs, scratch) {
             rhs[self.second_unknowns.clone()].iter_mut().zip(scratch.iter()).for_each(|(b, s)| *b += *s);
         }
