@@ -71,7 +71,7 @@ impl StaticResponse {
     /// `base` with the Ritz vectors of the static responses to unit forces on each of `groups` (their
     /// anchored vertices ignored; a group with none free adds nothing).
     pub fn augment(&self, base: &ModalBasis, mesh: &TriMesh, groups: &[Vec<usize>]) -> Result<ModalBasis, SolverError> {
-        let Factored { system, k_values, chol, .. } = &self.factored;
+        let Factored { system, chol, .. } = &self.factored;
         let (dofs, mass, dim) = (&system.dofs, &system.mass, system.mass.len());
         let columns: Vec<(usize, Vec<usize>)> = groups
             .iter()
@@ -106,7 +106,7 @@ impl StaticResponse {
         // Rayleigh–Ritz on the responses: G = SᵀMS, A = SᵀKS.
         let mut ks = vec![0.0; dim * r];
         for (col, out) in s.chunks(dim).zip(ks.chunks_mut(dim)) {
-            system.k.multiply(Some(k_values), col, out);
+            self.factored.multiply_unshifted(col, out);
         }
         let (cols, kcols): (Vec<&[f64]>, Vec<&[f64]>) = (s.chunks(dim).collect(), ks.chunks(dim).collect());
         let g = DMatrix::from_fn(r, r, |i, j| m_dot(cols[i], cols[j]));

@@ -154,7 +154,7 @@ fn extend(basis: &mut ReducedBasis, factor: &Factored, shapes: Vec<Vec<DVec3>>) 
     let (mut v, mut kv) = (vec![0.0; dofs.dofs()], vec![0.0; dofs.dofs()]);
     for shape in shapes {
         dofs.gather(&shape, &mut v);
-        factor.system.k.multiply(Some(&factor.k_values), &v, &mut kv);
+        factor.multiply_unshifted(&v, &mut kv);
         basis.stiffness.push(v.iter().zip(&kv).map(|(a, b)| a * b).sum());
         basis.shapes.push(shape);
     }
@@ -169,7 +169,7 @@ fn solve_unshifted(factor: &Factored, b: &[f64], count: usize) -> Result<Vec<f64
     let mut correction = vec![0.0; count * dim];
     let mut product = vec![0.0; dim];
     for ((x, b), c) in x.chunks(dim).zip(b.chunks(dim)).zip(correction.chunks_mut(dim)) {
-        factor.system.k.multiply(Some(&factor.k_values), x, &mut product);
+        factor.multiply_unshifted(x, &mut product);
         c.iter_mut().zip(b.iter().zip(&product)).for_each(|(c, (b, kx))| *c = b - kx);
     }
     factor.chol.solve_many(&mut correction, count).map_err(numerical)?;
