@@ -1,7 +1,8 @@
 //! `paper-fig6`: the paper's Figure 6 — the flat strip and the V-beam under a sweep of gravity, linear
 //! modal analysis and modal warping (8 modes), with the rotation-strain reconstruction (`mwts-rs`) and
-//! the reduced discrete shell (`rds`, the same 8 modes, their load responses and derivatives), against
-//! the nonlinear discrete shell: relative displacement-field error and relative area change against gravity.
+//! the reduced discrete shell (`rds`, the same 8 modes, their load responses and derivatives),
+//! against the nonlinear discrete shell: relative displacement-field error and relative area change
+//! against gravity.
 //!
 //! Every dynamic method runs from rest to rest under Rayleigh damping `α = 2ω₁` (the lowest mode
 //! critically damped); `ds-static` (at its defaults) is the reference, refused if it did not converge.

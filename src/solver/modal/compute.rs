@@ -324,8 +324,8 @@ mod tests {
 
     #[test]
     fn the_unshifted_product_is_the_assembled_stiffness_times_the_vector() {
-        // `K − σM` and `K` differ by `σM ≈ 1e-6 K` on the diagonal: a product that dropped the
-        // shift's term back would be off by about 1e-6 of `Kx`, far above the round-off allowed here.
+        // `K − σM` and `K` differ by `σM ≈ 1e-6 K` on the diagonal: a product that left out the
+        // shift's term would be off by about 1e-6 of `Kx`, far above the round-off allowed here.
         let mesh = grid([1.0, 0.2], [8, 2]).unwrap();
         let anchors: Vec<usize> = (0..mesh.vertex_count()).filter(|&v| mesh.positions()[v].x < -0.45).collect();
         let masses: Vec<f64> = mesh.vertex_areas().iter().map(|a| a * 0.5).collect();

@@ -26,9 +26,9 @@
 //!
 //! **Two halves.** From [`SPLIT`] triangles on, the chunks are cut in two halves, each summing its
 //! own force and drag rows and scattering into its own right side (the second into a scratch over
-//! the range of unknowns its triangles touch); the second half's sums are then added to the first's. With more than one thread
-//! ([`crate::threads`]) the halves run at once; on one they run in turn, so that the sums do not
-//! depend on the thread count.
+//! the range of unknowns its triangles touch); the second half's sums are then added to the
+//! first's ([`crate::threads::join_sum`]). With more than one thread ([`crate::threads`]) the halves
+//! run at once; on one they run in turn, so that the sums do not depend on the thread count.
 
 use std::ops::Range;
 
@@ -234,9 +234,9 @@ impl TrianglePass {
     }
 
     /// One pass at `q`: the right side `rhs` of the reconstruction (one 3-vector per unknown, with
-    /// the scratch for the second half; not computed if `None`), the generalised force `force` of the
-    /// loads with moments `loads` (without the gauges' centroid terms), and the Jacobian rows of
-    /// every drag in `drags`.
+    /// the scratch for the second half; not computed if `None`), the generalised force `force` of
+    /// the loads with moments `loads` (without the gauges' centroid terms), and the Jacobian rows
+    /// of every drag in `drags`.
     pub fn run(
         &self,
         q: &[f64],

@@ -104,8 +104,8 @@ impl ReducedBasis {
 }
 
 /// The modes of `analysis`, the static responses to body loads if `loads`, and `derivatives` pruned
-/// derivative directions (fewer if the derivatives span fewer), reporting progress in `[0, 1]`; with
-/// the factor of `K − σM` if one was made, for the drags' static responses to reuse.
+/// derivative directions (fewer if the derivatives span fewer), reporting progress in `[0, 1]`;
+/// with the factor of `K − σM` if one was made, for the drags' static responses to reuse.
 pub fn build(
     problem: &ModalProblem<'_>,
     analysis: &ModalAnalysis,
