@@ -8,6 +8,8 @@
 use glam::DVec3;
 use shellwarp::eval::measure::{critical_damping, reference, relative_error};
 use shellwarp::scene;
+use shellwarp::solver::modal::cache::Cache;
+use shellwarp::solver::reduced::Rds;
 use shellwarp::solver::run::{Outcome, Stop, run};
 use shellwarp::solver::{self, Drag, DragKind, Solver, SolverError};
 
@@ -138,7 +140,7 @@ fn basis_changes_rebuild_in_the_background_keeping_the_shape() {
         &["solver.method=rds".into(), "solver.modes=4".into(), "solver.rayleigh_alpha=8".into()],
     )
     .unwrap();
-    let mut s = shellwarp::solver::reduced::Rds::new(&setup).unwrap();
+    let mut s = Rds::new(&setup).unwrap();
     (0..60).for_each(|_| {
         s.step().unwrap();
     });
@@ -154,6 +156,40 @@ fn basis_changes_rebuild_in_the_background_keeping_the_shape() {
     eprintln!("the swap moved the shell by {moved:.2e} m");
     assert!(moved < 1e-3, "{moved}");
     s.step().unwrap();
+}
+
+/// The basis is kept in the cache beside the modes: a second solver of the scene reads it back (the
+/// modes' file, deleted, is not computed again) and takes the same steps under a drag, bit for bit.
+/// Its drag responses are solved with the factor it made in the background as it started; the first
+/// solver's with the factor its basis was built with.
+#[test]
+fn a_basis_read_from_the_cache_takes_the_same_steps_under_a_drag() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = Cache::at(dir.path());
+    let o = ["solver.method=rds".into(), "solver.modes=4".into(), "solver.rayleigh_alpha=8".into()];
+    let setup = scene::load("cantilever", &o).unwrap();
+    let rest = setup.mesh.positions();
+    let tip = (0..rest.len()).max_by(|&a, &b| rest[a].x.total_cmp(&rest[b].x)).unwrap();
+    let target = rest[tip] + DVec3::new(0.0, 0.1, 0.05);
+    let run = || {
+        let mut s = Rds::with_cache(&setup, cache.clone()).unwrap();
+        s.drags_mut().add(Drag { vertex: tip, kind: DragKind::Position(target) }).unwrap();
+        (0..20).for_each(|_| {
+            s.step().unwrap();
+        });
+        (s.basis().clone(), s.positions().to_vec())
+    };
+    let files = |kind: &str| {
+        let names = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap());
+        names.filter(|n| n.starts_with(kind)).map(|n| dir.path().join(n)).collect::<Vec<_>>()
+    };
+    let (built, fresh) = run();
+    assert_eq!((files("modes").len(), files("rds-basis").len()), (1, 1));
+    std::fs::remove_file(&files("modes")[0]).unwrap();
+    let (read, cached) = run();
+    assert!(files("modes").is_empty(), "the modes were computed again");
+    assert_eq!(read, built);
+    assert_eq!(cached, fresh);
 }
 
 /// A pull 1e200 m away makes the step's energy overflow: reported as a divergence, and *Reset*
@@ -262,7 +298,7 @@ fn a_cubature_of_the_modes_reproduces_the_exact_force_on_unseen_poses_and_the_eq
     ]
     .map(String::from);
     let setup = scene::load("cantilever", &o).unwrap();
-    let mut s = shellwarp::solver::reduced::Rds::new(&setup).unwrap();
+    let mut s = Rds::new(&setup).unwrap();
     let kept = s.cubature().expect("a cubature was fitted").elements.len();
     let errors = s.cubature_errors(20).unwrap();
     let mean = errors.iter().sum::<f64>() / errors.len() as f64;

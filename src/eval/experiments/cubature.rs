@@ -17,6 +17,7 @@ use super::super::report::{Section, bold, bold_percent};
 use super::super::table::{Column, Table, Value, computed, timed};
 use super::super::{About, EvalError, Experiment};
 use super::{add_chart, key_value, num};
+use crate::solver::modal::cache::Cache;
 use crate::solver::reduced::Rds;
 
 /// The experiment.
@@ -102,8 +103,10 @@ impl Experiment for Cubature {
             let mut o = overrides.clone();
             o.push(format!("solver.cubature={cubature}"));
             let s = measure::setup(scene, "rds", &o)?;
+            // Uncached, so that the two builds differ by the fit alone.
             let t = Instant::now();
-            let rds = Rds::new(&s).map_err(EvalError::solver(format!("building rds for {scene}")))?;
+            let rds = Rds::with_cache(&s, Cache::disabled())
+                .map_err(EvalError::solver(format!("building rds for {scene}")))?;
             Ok((rds, t.elapsed().as_secs_f64()))
         };
         let (mut exact, plain) = build(0)?;

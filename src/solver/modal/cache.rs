@@ -1,5 +1,7 @@
 //! On-disk cache of modal analyses, keyed by a hash of everything the modes depend on (mesh,
-//! anchors, masses, stiffnesses, mode count), so a scene reopens without recomputing.
+//! anchors, masses, stiffnesses, mode count), so a scene reopens without recomputing. What is built
+//! on the modes (`rds`'s basis and cubature, [`crate::solver::reduced::stored`]) is kept in the same
+//! folder and file layout, under keys derived from the modes' ([`derived_key`]).
 //!
 //! Default location ([`Cache::from_env`]): `$SHELLWARP_CACHE_DIR`, else `$XDG_CACHE_HOME/shellwarp`,
 //! else `~/.cache/shellwarp`. Files are written atomically (temporary file, then rename); an
@@ -74,18 +76,50 @@ impl Cache {
 
     /// The file that holds (or would hold) the analysis of `p`.
     pub fn path(&self, p: &ModalProblem<'_>) -> Option<PathBuf> {
-        Some(self.dir.as_ref()?.join(format!("modes-{:016x}.bin", key(p))))
+        self.file("modes", key(p))
     }
 
     /// A cached analysis of this problem, if there is a valid one.
     pub fn load(&self, p: &ModalProblem<'_>) -> Option<ModalAnalysis> {
-        decode(p, &std::fs::read(self.path(p)?).ok()?)
+        decode(p, self.read_words("modes", MAGIC, key(p))?)
     }
 
     /// Store an analysis (best effort: a cache that cannot be written is silently skipped).
     pub fn store(&self, p: &ModalProblem<'_>, a: &ModalAnalysis) {
-        let Some(path) = self.path(p) else { return };
-        let bytes = encode(p, a);
+        self.write_words("modes", MAGIC, key(p), &encode(a));
+    }
+
+    /// The file `{kind}-{key}.bin` in the cache's folder, if caching is on.
+    pub fn file(&self, kind: &str, key: u64) -> Option<PathBuf> {
+        Some(self.dir.as_ref()?.join(format!("{kind}-{key:016x}.bin")))
+    }
+
+    /// The numbers stored under `kind` and `key`, if a valid file holds them: `magic`, then `key`,
+    /// then the numbers, then a checksum (FNV-1a of everything before it); every number finite.
+    pub fn read_words(&self, kind: &str, magic: &[u8; 8], key: u64) -> Option<Vec<f64>> {
+        let bytes = std::fs::read(self.file(kind, key)?).ok()?;
+        let (body, sum) = bytes.split_at_checked(bytes.len().checked_sub(8)?)?;
+        if fnv(body.iter().copied(), FNV_OFFSET).to_le_bytes() != sum {
+            return None;
+        }
+        let rest = body.strip_prefix(magic)?.strip_prefix(&key.to_le_bytes()[..])?;
+        if rest.len() % 8 != 0 {
+            return None;
+        }
+        let words: Vec<f64> =
+            rest.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8]))).collect();
+        words.iter().all(|w| w.is_finite()).then_some(words)
+    }
+
+    /// Store `words` under `kind` and `key` in the layout [`Cache::read_words`] reads (best effort,
+    /// written atomically: a cache that cannot be written is silently skipped).
+    pub fn write_words(&self, kind: &str, magic: &[u8; 8], key: u64, words: &[f64]) {
+        let Some(path) = self.file(kind, key) else { return };
+        let mut bytes = magic.to_vec();
+        bytes.extend(key.to_le_bytes());
+        bytes.extend(words.iter().flat_map(|w| w.to_le_bytes()));
+        let sum = fnv(bytes.iter().copied(), FNV_OFFSET);
+        bytes.extend(sum.to_le_bytes());
         let write = || -> std::io::Result<()> {
             std::fs::create_dir_all(path.parent().ok_or(std::io::ErrorKind::NotFound)?)?;
             crate::atomic::write(&path, &bytes)
@@ -94,19 +128,18 @@ impl Cache {
     }
 }
 
-/// The analysis in `bytes`, if they are a valid encoding of one for `p`: the right magic, key and
-/// checksum (FNV-1a of everything before it), sizes that fit `p`, and finite values.
-fn decode(p: &ModalProblem<'_>, bytes: &[u8]) -> Option<ModalAnalysis> {
-    let (body, sum) = bytes.split_at_checked(bytes.len().checked_sub(8)?)?;
-    if fnv(body.iter().copied(), FNV_OFFSET).to_le_bytes() != sum {
-        return None;
-    }
-    let rest = body.strip_prefix(MAGIC)?.strip_prefix(&key(p).to_le_bytes()[..])?;
-    let words: Vec<f64> = rest.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8]))).collect();
+/// A key for what is derived from problem `p` with the further settings `extra` (e.g. `rds`'s
+/// basis sizes): `p`'s key, hashed on with them.
+pub fn derived_key(p: &ModalProblem<'_>, extra: &[u8]) -> u64 {
+    fnv(extra.iter().copied(), key(p))
+}
+
+/// The analysis in `words`, if they are one of `p`'s: sizes that fit `p`.
+fn decode(p: &ModalProblem<'_>, words: Vec<f64>) -> Option<ModalAnalysis> {
     let n = p.mesh.vertex_count();
     let (m, rigid, solves) = (*words.first()? as usize, *words.get(1)? as usize, *words.get(2)? as usize);
     let expected = p.modes + if p.keep_rigid { rigid } else { 0 };
-    if m != expected || words.len() != 7 + 2 * m + 3 * n * m || rest.len() % 8 != 0 {
+    if m != expected || words.len() != 7 + 2 * m + 3 * n * m {
         return None;
     }
     let timings = PrecomputeTimings { assembly: words[3], factorisation: words[4], eigen: words[5] };
@@ -117,16 +150,13 @@ fn decode(p: &ModalProblem<'_>, bytes: &[u8]) -> Option<ModalAnalysis> {
         .chunks_exact(3 * n)
         .map(|s| s.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])).collect())
         .collect();
-    if !words.iter().all(|w| w.is_finite()) {
-        return None;
-    }
     let basis = ModalBasis::new(p.mesh, values, &shapes);
     Some(ModalAnalysis { basis, residuals, lambda_max, rigid_modes: rigid, timings, solves })
 }
 
-/// The file contents for analysis `a` of `p`.
-fn encode(p: &ModalProblem<'_>, a: &ModalAnalysis) -> Vec<u8> {
-    let n = p.mesh.vertex_count();
+/// The numbers that store analysis `a`.
+fn encode(a: &ModalAnalysis) -> Vec<f64> {
+    let n = a.basis.vertex_count();
     let m = a.basis.modes();
     let mut words = vec![m as f64, a.rigid_modes as f64, a.solves as f64];
     words.extend([a.timings.assembly, a.timings.factorisation, a.timings.eigen, a.lambda_max]);
@@ -137,12 +167,7 @@ fn encode(p: &ModalProblem<'_>, a: &ModalAnalysis) -> Vec<u8> {
             words.extend((0..3).map(|ax| a.basis.phi(v, ax, j)));
         }
     }
-    let mut bytes = MAGIC.to_vec();
-    bytes.extend(key(p).to_le_bytes());
-    bytes.extend(words.iter().flat_map(|w| w.to_le_bytes()));
-    let sum = fnv(bytes.iter().copied(), FNV_OFFSET);
-    bytes.extend(sum.to_le_bytes());
-    bytes
+    words
 }
 
 #[cfg(test)]

@@ -173,6 +173,14 @@ pub fn factored(problem: &ModalProblem<'_>) -> Result<Factored, SolverError> {
 
 /// Run the modal analysis, reporting progress in `[0, 1]` through `progress`.
 pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<ModalAnalysis, SolverError> {
+    analyse_factored(problem, progress).map(|(analysis, _)| analysis)
+}
+
+/// [`analyse`], with the factor of `K − σM` it solved with, for more solves with the same matrix.
+pub fn analyse_factored(
+    problem: &ModalProblem<'_>,
+    progress: &dyn Fn(f32),
+) -> Result<(ModalAnalysis, Factored), SolverError> {
     let mesh = problem.mesh;
     let n = mesh.vertex_count();
     let free = problem.anchors.is_empty();
@@ -248,14 +256,15 @@ pub fn analyse(problem: &ModalProblem<'_>, progress: &dyn Fn(f32)) -> Result<Mod
     let basis = ModalBasis::new(mesh, values, &shapes);
     let eigen = t2.elapsed().as_secs_f64();
     progress(1.0);
-    Ok(ModalAnalysis {
+    let analysis = ModalAnalysis {
         basis,
         residuals: keep.iter().map(|&i| residuals[i]).collect(),
         rigid_modes,
         lambda_max,
         timings: PrecomputeTimings { assembly, factorisation, eigen },
         solves: pairs.block_solves,
-    })
+    };
+    Ok((analysis, factor))
 }
 
 /// The deformation modes of a scene's shell (its mesh, anchors, lumped masses and stiffnesses),

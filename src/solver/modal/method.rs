@@ -14,7 +14,7 @@ use glam::DVec3;
 
 use super::basis::ModalBasis;
 use super::cache::Cache;
-use super::compute::{ModalAnalysis, ModalProblem, analyse};
+use super::compute::{Factored, ModalAnalysis, ModalProblem, analyse_factored};
 use super::dynamics::{ModalDynamics, ModalParams, Shape};
 use super::ritz::{self, StaticResponse};
 use super::rotation_strain::RotationStrain;
@@ -174,14 +174,22 @@ impl Request {
 
     /// Cached or freshly computed (and then cached) modes.
     pub(crate) fn run(&self, progress: &dyn Fn(f32)) -> Result<ModalAnalysis, SolverError> {
+        self.run_factored(progress).map(|(a, _)| a)
+    }
+
+    /// [`Request::run`], with the factor of `K − σM` when the modes were computed (not cached).
+    pub(crate) fn run_factored(
+        &self,
+        progress: &dyn Fn(f32),
+    ) -> Result<(ModalAnalysis, Option<Factored>), SolverError> {
         let masses = self.masses();
         let problem = self.problem(&masses);
         if let Some(a) = self.cache.load(&problem) {
-            return Ok(a);
+            return Ok((a, None));
         }
-        let a = analyse(&problem, progress)?;
+        let (a, factor) = analyse_factored(&problem, progress)?;
         self.cache.store(&problem, &a);
-        Ok(a)
+        Ok((a, Some(factor)))
     }
 }
 

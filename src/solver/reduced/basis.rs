@@ -7,7 +7,9 @@
 //! `K ψ_ij = −½ (H'(φ_j) φ_i + H'(φ_i) φ_j)`: differentiating `∇E(X + tφ + ½t²ψ) = t K φ + O(t³)`
 //! twice. `H'(φ)` is the central difference of the analytic Hessian along `φ`, at a step of
 //! [`HESSIAN_STEP`] of the mode's largest displacement (its error is `O(step²)`, about 1e-8
-//! relative; the tests check the `t³` law). One factorisation of `K` serves every pair; each solve
+//! relative; the tests check the `t³` law; the two Hessians of a difference are assembled at once
+//! on two threads, [`threads::join`]). One factorisation of `K` serves every pair (the modal
+//! analysis's own, when the modes were just computed rather than read from the cache); each solve
 //! takes one step of iterative refinement against the unshifted `K` (the factor is of `K − σM`,
 //! [`crate::solver::modal::compute::factored`]).
 //!
@@ -46,6 +48,7 @@ use crate::solver::SolverError;
 use crate::solver::modal::basis::ModalBasis;
 use crate::solver::modal::compute::{Factored, ModalAnalysis, ModalProblem, factored};
 use crate::solver::modal::rotation_strain::RotationStrain;
+use crate::threads;
 
 /// The step of the Hessian's central difference, relative to the mode's largest displacement.
 pub const HESSIAN_STEP: f64 = 1e-4;
@@ -105,10 +108,12 @@ impl ReducedBasis {
 
 /// The modes of `analysis`, the static responses to body loads if `loads`, and `derivatives` pruned
 /// derivative directions (fewer if the derivatives span fewer), reporting progress in `[0, 1]`;
-/// with the factor of `K − σM` if one was made, for the drags' static responses to reuse.
+/// the static solves use `factor` (the analysis's factor of `K − σM`, when it was just computed) or
+/// make one. Returned with the factor if there is one, for the drags' static responses to reuse.
 pub fn build(
     problem: &ModalProblem<'_>,
     analysis: &ModalAnalysis,
+    factor: Option<Factored>,
     loads: bool,
     derivatives: usize,
     progress: &dyn Fn(f32),
@@ -122,9 +127,12 @@ pub fn build(
     // static solves have no answer, and the basis is the modes alone.
     let mechanism = analysis.basis.eigenvalues.iter().any(|l| *l <= MECHANISM * analysis.lambda_max);
     if (!loads && derivatives == 0) || analysis.rigid_modes > 0 || mechanism {
-        return Ok((basis, None));
+        return Ok((basis, factor));
     }
-    let factor = factored(problem)?;
+    let factor = match factor {
+        Some(factor) => factor,
+        None => factored(problem)?,
+    };
     if loads {
         let kept = principal(problem.masses, &basis.shapes, body_load_responses(problem, &factor)?, 3);
         basis.loads = kept.len();
@@ -218,6 +226,7 @@ pub fn derivatives_of(
     let dim = factor.system.mass.len();
     let shell = DiscreteShell::new(problem.mesh, problem.stiffness).map_err(numerical)?;
     let mut asm = shell.hessian_pattern(dofs).map_err(numerical)?;
+    let mut minus = asm.clone();
     let rest = problem.mesh.positions();
     let reduced: Vec<Vec<f64>> = modes
         .iter()
@@ -239,10 +248,11 @@ pub fn derivatives_of(
         let largest = phi.iter().map(|p| p.length()).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
         let e = HESSIAN_STEP / largest;
         let shifted = |s: f64| -> Vec<DVec3> { rest.iter().zip(phi).map(|(x, p)| *x + *p * s).collect() };
-        shell.assemble_hessian(&mut asm, &shifted(e), HessianMode::Exact);
-        let plus = asm.values().to_vec();
-        shell.assemble_hessian(&mut asm, &shifted(-e), HessianMode::Exact);
-        let dh: Vec<f64> = plus.iter().zip(asm.values()).map(|(a, b)| (a - b) / (2.0 * e)).collect();
+        threads::join(
+            || shell.assemble_hessian(&mut asm, &shifted(e), HessianMode::Exact),
+            || shell.assemble_hessian(&mut minus, &shifted(-e), HessianMode::Exact),
+        );
+        let dh: Vec<f64> = asm.values().iter().zip(minus.values()).map(|(a, b)| (a - b) / (2.0 * e)).collect();
         for (i, v) in reduced.iter().enumerate() {
             asm.multiply(Some(&dh), v, &mut product);
             let k = index(i, j);
@@ -371,7 +381,7 @@ mod tests {
     use crate::energy::ShellStiffness;
     use crate::mesh::TriMesh;
     use crate::mesh::generate::{grid, v_beam};
-    use crate::solver::modal::compute::analyse;
+    use crate::solver::modal::compute::{analyse, analyse_factored};
 
     /// A clamped shell: its mesh, anchors (the vertices left of x = −0.45) and masses.
     fn clamped(mesh: TriMesh) -> (TriMesh, Vec<usize>, Vec<f64>) {
@@ -462,8 +472,15 @@ mod tests {
         let (mesh, anchors, masses) = clamped(v_beam(1.0, 0.2, 90.0, [12, 4]).unwrap());
         let p = problem(&mesh, &anchors, &masses, 4);
         let analysis = analyse(&p, &|_| {}).unwrap();
-        let (basis, _) = build(&p, &analysis, true, 7, &|_| {}).unwrap();
+        let (basis, factor) = build(&p, &analysis, None, true, 7, &|_| {}).unwrap();
         assert_eq!((basis.modes, basis.loads, basis.len()), (4, 3, 14));
+        // With the analysis's own factor (the modes just computed) the basis is the same, bit for bit,
+        // and that factor comes back for the drags.
+        let (fresh, analysis_factor) = analyse_factored(&p, &|_| {}).unwrap();
+        assert_eq!(fresh.basis, analysis.basis);
+        let (reused, back) = build(&p, &fresh, Some(analysis_factor), true, 7, &|_| {}).unwrap();
+        assert_eq!(reused, basis);
+        assert!(factor.is_some() && back.is_some());
         for j in 0..4 {
             assert_eq!(basis.shapes[j], analysis.basis.shape(j), "mode {j}");
         }

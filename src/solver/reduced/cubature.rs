@@ -229,7 +229,7 @@ mod tests {
         let p =
             ModalProblem { mesh: &mesh, anchors: &anchors, masses: &masses, stiffness, modes: 3, keep_rigid: false };
         let analysis = analyse(&p, &|_| {}).unwrap();
-        let (b, _) = basis::build(&p, &analysis, false, 4, &|_| {}).unwrap();
+        let (b, _) = basis::build(&p, &analysis, None, false, 4, &|_| {}).unwrap();
         let mut shell = ReducedShell::new(&mesh, &anchors, stiffness, &b).unwrap();
         let rest = mesh.positions();
         let c = &super::poses(&b, rest, 4, 17)[3];

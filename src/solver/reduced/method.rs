@@ -17,7 +17,8 @@
 //! **Drags** are stiff springs ([`super::springs`]); while position drags last, the static responses
 //! to the dragged vertices join the basis, as in the modal methods. They are solved with the factor
 //! of `K − σM` the basis was built with (the load responses and derivatives need it), kept with the
-//! basis: a first drag then costs no factorisation.
+//! basis; a basis read from the cache ([`super::stored`]) has none, and one is made in the background
+//! as the solver starts. Either way a first drag costs no factorisation in the step.
 //!
 //! **Cubature.** With `solver.cubature` above 0 the energy is summed over an optimised cubature
 //! ([`super::cubature`]) fitted to the base basis after it is built (in the background like it);
@@ -32,6 +33,7 @@ use super::basis::{self, ReducedBasis, default_derivatives};
 use super::cubature;
 use super::energy::{Cubature, ReducedShell};
 use super::springs::{Spring, springs};
+use super::stored::{self, Sizes};
 use crate::scene::Setup;
 use crate::solver::modal::cache::Cache;
 use crate::solver::modal::method::{CONSTRAINT_DAMPING, MODES, Request, STEP, named};
@@ -161,18 +163,35 @@ struct Built {
 }
 
 impl Built {
-    /// The modes (cached), their derivatives, the reduced shell, its cubature of at most `cubature`
-    /// elements (none for 0).
+    /// The basis (read from the cache, else built from the modes, themselves cached or computed),
+    /// the reduced shell, its cubature of at most `sizes.cubature` elements (none for 0; cached
+    /// likewise). Built afresh, it keeps the factor it was built with for the drags.
     fn of(request: &Request, sizes: Sizes, progress: &dyn Fn(f32)) -> Result<Self, SolverError> {
-        let analysis = request.run(&|f| progress(0.5 * f))?;
         let masses = request.masses();
         let problem = request.problem(&masses);
-        let (base, factor) =
-            basis::build(&problem, &analysis, sizes.loads, sizes.derivatives, &|f| progress(0.5 + 0.3 * f))?;
+        let cache = &request.cache;
+        let (base, factor) = match stored::load_basis(cache, &problem, sizes) {
+            Some(base) => (base, None),
+            None => {
+                let (analysis, factor) = request.run_factored(&|f| progress(0.5 * f))?;
+                let (loads, derivatives) = (sizes.loads, sizes.derivatives);
+                let built =
+                    basis::build(&problem, &analysis, factor, loads, derivatives, &|f| progress(0.5 + 0.3 * f))?;
+                stored::store_basis(cache, &problem, sizes, &built.0);
+                built
+            }
+        };
         let mut shell = ReducedShell::new(&request.mesh, &request.anchors, request.stiffness, &base)?;
         if sizes.cubature > 0 {
-            let rest = request.mesh.positions();
-            let fitted = cubature::fit(&mut shell, &base, rest, sizes.cubature, &|f| progress(0.8 + 0.2 * f));
+            let fitted = match stored::load_cubature(cache, &problem, sizes, shell.element_count()) {
+                Some(fitted) => fitted,
+                None => {
+                    let rest = request.mesh.positions();
+                    let fitted = cubature::fit(&mut shell, &base, rest, sizes.cubature, &|f| progress(0.8 + 0.2 * f));
+                    stored::store_cubature(cache, &problem, sizes, &fitted);
+                    fitted
+                }
+            };
             shell.set_cubature(Some(fitted));
         }
         let mut built = Self::around(request, base.clone(), base, shell);
@@ -203,17 +222,6 @@ impl Built {
     }
 }
 
-/// What a basis is built of beside the modes, and its cubature.
-#[derive(Debug, Clone, Copy)]
-struct Sizes {
-    /// Whether the static responses to body loads join the modes.
-    loads: bool,
-    /// Derivative directions.
-    derivatives: usize,
-    /// Cubature elements (0: every element).
-    cubature: usize,
-}
-
 /// The reduced discrete shell.
 pub struct Rds {
     request: Request,
@@ -230,6 +238,9 @@ pub struct Rds {
     drags: DragSet,
     steps: u64,
     pending: Option<Background<Built>>,
+    /// The drags' factor of `K − σM`, made in the background when the basis came from the cache
+    /// (built afresh, the basis brings the one it was built with).
+    factor: Option<Background<StaticResponse>>,
     generation: Generation,
     /// The groups of dragged vertices whose responses are in the basis, and the drag revision the
     /// basis was last fitted to.
@@ -238,9 +249,14 @@ pub struct Rds {
 }
 
 impl Rds {
-    /// Build from a scene (computing or loading the modes synchronously), caching the modes in the
-    /// default location.
+    /// Build from a scene (computing or loading the modes and the basis synchronously), caching
+    /// them in the default location ([`Cache::from_env`]).
     pub fn new(setup: &Setup) -> Result<Self, SolverError> {
+        Self::with_cache(setup, Cache::from_env())
+    }
+
+    /// Build from a scene, caching the modes, the basis and the cubature in `cache`.
+    pub fn with_cache(setup: &Setup, cache: Cache) -> Result<Self, SolverError> {
         params::check_scene(params::specs(PARAMS), setup)?;
         if setup.anchors.is_empty() {
             return Err(SolverError::Unsuitable {
@@ -251,7 +267,7 @@ impl Rds {
             });
         }
         let s = &setup.scene.solver;
-        let request = Request::of(setup, Cache::from_env());
+        let request = Request::of(setup, cache);
         // In range: checked above.
         let sizes = Sizes {
             loads: s.load_responses.is_none_or(|l| l > 0),
@@ -260,7 +276,7 @@ impl Rds {
         };
         let built = Built::of(&request, sizes, &|_| {}).map_err(|e| named(e, RDS.name))?;
         let r = built.basis.len();
-        Ok(Self {
+        let mut rds = Self {
             request,
             sizes,
             built,
@@ -281,10 +297,25 @@ impl Rds {
             drags: DragSet::new(setup.mesh.vertex_count(), true),
             steps: 0,
             pending: None,
+            factor: None,
             generation: Generation::default(),
             groups: Vec::new(),
             drag_revision: None,
-        })
+        };
+        rds.prepare_factor();
+        Ok(rds)
+    }
+
+    /// Start making the drags' factor in the background if the basis came without one, so that a
+    /// first drag does not wait a factorisation (about a second on the creature).
+    fn prepare_factor(&mut self) {
+        if self.built.response.is_some() {
+            return;
+        }
+        let request = self.request.clone();
+        let work = move |_: &dyn Fn(f32)| StaticResponse::new(&request.problem(&request.masses()));
+        let generation = Generation::default();
+        self.factor = Some(Background::start("shellwarp-rds-factor", "factor", &generation, Duration::ZERO, work));
     }
 
     /// The basis in use.
@@ -417,6 +448,7 @@ impl Rds {
     }
 
     fn recompute(&mut self) {
+        self.factor = None;
         let request = self.request.clone();
         let sizes = self.sizes;
         let work = move |report: &dyn Fn(f32)| Built::of(&request, sizes, report);
@@ -445,6 +477,7 @@ impl Rds {
         let built = result.map_err(|e| named(e, RDS.name))?;
         (self.groups, self.drag_revision) = (Vec::new(), None);
         self.carry(built);
+        self.prepare_factor();
         Ok(())
     }
 
@@ -465,7 +498,8 @@ impl Rds {
         let basis = if groups.is_empty() {
             base.clone()
         } else {
-            let response = match self.built.response.take() {
+            let made = self.factor.take().and_then(|job| job.wait().ok());
+            let response = match self.built.response.take().or(made) {
                 Some(response) => response,
                 None => StaticResponse::new(&self.request.problem(&self.request.masses()))?,
             };

@@ -11,6 +11,7 @@
 //!   optimised cubature of a few elements ([`cubature`]).
 //! - **Dynamics** ([`method`]): backward Euler at 1/30 s by Newton in `c`; drags as stiff springs
 //!   ([`springs`]).
+//! - **Cache** ([`stored`]): the basis and the cubature kept on disk beside the modes.
 //!
 //! Why the correction: the full energy on the reconstruction of the modes alone locks (the fit leaves
 //! small membrane strains that a membrane 10⁴ times stiffer than bending punishes), and the
@@ -22,5 +23,6 @@ pub mod cubature;
 pub mod energy;
 pub mod method;
 pub mod springs;
+pub mod stored;
 
 pub use method::{RDS, Rds};
