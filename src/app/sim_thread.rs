@@ -262,7 +262,15 @@ const MAX_BACKLOG: f64 = 0.25;
 const IDLE_WAIT: Duration = Duration::from_millis(20);
 
 impl SimLoop {
-    fn new(solver: Box<dyn Solver>, paused: bool, pacing: Pacing, in_solver: InSolver, discard: Generation) -> Self {
+    fn new(
+        mut solver: Box<dyn Solver>,
+        paused: bool,
+        pacing: Pacing,
+        in_solver: InSolver,
+        discard: Generation,
+    ) -> Self {
+        // The user drags: what a first drag needs is made ahead, in the background.
+        solver.expect_drags();
         Self {
             last_good: solver.positions().to_vec(),
             solver,
@@ -427,6 +435,7 @@ impl SimLoop {
             }
             Command::Replace(solver) => {
                 self.solver = solver;
+                self.solver.expect_drags();
                 self.ghost = None;
                 self.readout = None;
                 // What the old solver, its loads and analyses freed goes back to the system.

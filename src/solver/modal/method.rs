@@ -16,7 +16,7 @@ use super::basis::ModalBasis;
 use super::cache::Cache;
 use super::compute::{Factored, ModalAnalysis, ModalProblem, analyse_factored};
 use super::dynamics::{ModalDynamics, ModalParams, Shape};
-use super::ritz::{self, StaticResponse};
+use super::ritz::{self, DragFactor};
 use super::rotation_strain::RotationStrain;
 use crate::energy::ShellStiffness;
 use crate::mesh::TriMesh;
@@ -208,8 +208,8 @@ pub struct ModalSolver {
     dynamics: ModalDynamics,
     analysis: ModalAnalysis,
     drags: DragSet,
-    /// The static responses of the current analysis's shell (built at the first position drag).
-    response: Option<StaticResponse>,
+    /// The factor for the static responses of the current analysis's shell.
+    factor: DragFactor,
     /// The groups of dragged vertices whose responses are in the dynamics' basis.
     groups: Vec<Vec<usize>>,
     /// The drag revision the basis was last fitted to.
@@ -255,7 +255,7 @@ impl ModalSolver {
             params,
             analysis,
             drags: DragSet::new(setup.mesh.vertex_count(), true),
-            response: None,
+            factor: DragFactor::default(),
             groups: Vec::new(),
             drag_revision: None,
             steps: 0,
@@ -312,11 +312,7 @@ impl ModalSolver {
         let basis = if groups.is_empty() {
             self.analysis.basis.clone()
         } else {
-            if self.response.is_none() {
-                let masses = self.request.masses();
-                self.response = Some(StaticResponse::new(&self.request.problem(&masses))?);
-            }
-            let response = self.response.as_ref().ok_or_else(stopped)?;
+            let response = self.factor.get(&self.request)?;
             response.augment(&self.analysis.basis, &self.request.mesh, &groups)?
         };
         self.dynamics.replace_basis(basis, &self.request.masses());
@@ -356,13 +352,10 @@ impl ModalSolver {
         self.dynamics.replace_basis(analysis.basis.clone(), &masses);
         self.analysis = analysis;
         // The responses belong to the old shell: refit them to the new one at the next step.
-        (self.response, self.groups, self.drag_revision) = (None, Vec::new(), None);
+        self.factor.renew(&self.request, None);
+        (self.groups, self.drag_revision) = (Vec::new(), None);
         Ok(())
     }
-}
-
-fn stopped() -> SolverError {
-    SolverError::Numerical("the background modal analysis stopped".into())
 }
 
 /// The modal analysis reports itself as method `modal`: name the method the user chose instead.
@@ -457,6 +450,10 @@ impl Solver for ModalSolver {
 
     fn poll(&mut self) -> Result<(), SolverError> {
         self.poll_pending()
+    }
+
+    fn expect_drags(&mut self) {
+        self.factor.expect(&self.request);
     }
 
     fn info(&self) -> Vec<(&'static str, f64)> {

@@ -12,13 +12,19 @@
 //! then gives vectors with the modes' properties, mass-normalised and decoupled, with Ritz values `μ`:
 //! the augmented basis is a [`ModalBasis`] like any other, and every modal method runs on it
 //! unchanged. Its span contains the modes', so swapping it in projects the state exactly.
+//!
+//! The factor ([`DragFactor`]) is made at the first position drag, which then waits about a second on
+//! the creature; once drags are expected ([`crate::solver::Solver::expect_drags`]: the viewer) it is
+//! made ahead, in the background.
 
 use glam::DVec3;
 use nalgebra::{DMatrix, SymmetricEigen};
 
 use super::basis::ModalBasis;
 use super::compute::{Factored, ModalProblem, factored};
+use super::method::Request;
 use crate::mesh::TriMesh;
+use crate::solver::supersede::{Background, Generation};
 use crate::solver::{DragKind, DragSet, SolverError};
 
 /// The most groups of dragged vertices that get responses (three vectors each); past this many
@@ -37,6 +43,50 @@ pub struct StaticResponse {
 impl std::fmt::Debug for StaticResponse {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("StaticResponse").field("dofs", &self.factored.system.mass.len()).finish()
+    }
+}
+
+/// The drags' factor of one shell: at hand, being made in the background, or not yet made.
+#[derive(Default)]
+pub(crate) struct DragFactor {
+    ready: Option<StaticResponse>,
+    making: Option<Background<StaticResponse>>,
+    /// Drags are expected: a missing factor is made ahead, in the background.
+    expected: bool,
+}
+
+impl DragFactor {
+    /// Drags are expected from now on: start making the factor of `request`'s shell in the
+    /// background unless one is at hand or under way.
+    pub(crate) fn expect(&mut self, request: &Request) {
+        self.expected = true;
+        if self.ready.is_none() && self.making.is_none() {
+            let request = request.clone();
+            let work = move |_: &dyn Fn(f32)| StaticResponse::new(&request.problem(&request.masses()));
+            let generation = Generation::default();
+            self.making =
+                Some(Background::start("shellwarp-drag-factor", "factor", &generation, Default::default(), work));
+        }
+    }
+
+    /// The shell changed (`request` describes the new one): drop the old factor and take `ready`
+    /// (one made with the new shell's basis) if given, else make one ahead if drags are expected.
+    pub(crate) fn renew(&mut self, request: &Request, ready: Option<StaticResponse>) {
+        (self.ready, self.making) = (ready, None);
+        if self.expected {
+            self.expect(request);
+        }
+    }
+
+    /// The factor of `request`'s shell: the one at hand, else the background one (waiting for it),
+    /// else one made here.
+    pub(crate) fn get(&mut self, request: &Request) -> Result<&StaticResponse, SolverError> {
+        let made = self.making.take().and_then(|job| job.wait().ok());
+        let ready = match (self.ready.take(), made) {
+            (Some(r), _) | (None, Some(r)) => r,
+            (None, None) => StaticResponse::new(&request.problem(&request.masses()))?,
+        };
+        Ok(self.ready.insert(ready))
     }
 }
 

@@ -17,8 +17,8 @@
 //! **Drags** are stiff springs ([`super::springs`]); while position drags last, the static responses
 //! to the dragged vertices join the basis, as in the modal methods. They are solved with the factor
 //! of `K − σM` the basis was built with (the load responses and derivatives need it), kept with the
-//! basis; a basis read from the cache ([`super::stored`]) has none, and one is made in the background
-//! as the solver starts. Either way a first drag costs no factorisation in the step.
+//! basis. A basis read from the cache ([`super::stored`]) has none: one is made at the first drag,
+//! or ahead in the background once drags are expected ([`Solver::expect_drags`]).
 //!
 //! **Cubature.** With `solver.cubature` above 0 the energy is summed over an optimised cubature
 //! ([`super::cubature`]) fitted to the base basis after it is built (in the background like it);
@@ -37,7 +37,7 @@ use super::stored::{self, Sizes};
 use crate::scene::Setup;
 use crate::solver::modal::cache::Cache;
 use crate::solver::modal::method::{CONSTRAINT_DAMPING, MODES, Request, STEP, named};
-use crate::solver::modal::ritz::{self, StaticResponse};
+use crate::solver::modal::ritz::{self, DragFactor, StaticResponse};
 use crate::solver::newton::ITERATIONS_SPEC;
 use crate::solver::params::shared::{DENSITY, GRAVITY_Y, K_AREA, K_BEND, K_LENGTH, RAYLEIGH_ALPHA, RAYLEIGH_BETA};
 use crate::solver::params::{self, Param, Redo};
@@ -157,8 +157,8 @@ struct Built {
     shell: ReducedShell,
     /// The rest reduced stiffness `K₀ = Jᵀ K J` at `c = 0`.
     rest: DMatrix<f64>,
-    /// The shell's factored stiffness for the drags' static responses: the one the basis was built
-    /// with, else made at the first drag.
+    /// The factored stiffness the basis was built with, if it was built here (not read from the
+    /// cache): handed to the solver's [`DragFactor`] for the drags' static responses.
     response: Option<StaticResponse>,
 }
 
@@ -238,9 +238,9 @@ pub struct Rds {
     drags: DragSet,
     steps: u64,
     pending: Option<Background<Built>>,
-    /// The drags' factor of `K − σM`, made in the background when the basis came from the cache
-    /// (built afresh, the basis brings the one it was built with).
-    factor: Option<Background<StaticResponse>>,
+    /// The drags' factor of `K − σM`: the one the basis was built with, else made at the first drag
+    /// or ahead in the background once drags are expected.
+    factor: DragFactor,
     generation: Generation,
     /// The groups of dragged vertices whose responses are in the basis, and the drag revision the
     /// basis was last fitted to.
@@ -297,25 +297,14 @@ impl Rds {
             drags: DragSet::new(setup.mesh.vertex_count(), true),
             steps: 0,
             pending: None,
-            factor: None,
+            factor: DragFactor::default(),
             generation: Generation::default(),
             groups: Vec::new(),
             drag_revision: None,
         };
-        rds.prepare_factor();
+        let response = rds.built.response.take();
+        rds.factor.renew(&rds.request, response);
         Ok(rds)
-    }
-
-    /// Start making the drags' factor in the background if the basis came without one, so that a
-    /// first drag does not wait a factorisation (about a second on the creature).
-    fn prepare_factor(&mut self) {
-        if self.built.response.is_some() {
-            return;
-        }
-        let request = self.request.clone();
-        let work = move |_: &dyn Fn(f32)| StaticResponse::new(&request.problem(&request.masses()));
-        let generation = Generation::default();
-        self.factor = Some(Background::start("shellwarp-rds-factor", "factor", &generation, Duration::ZERO, work));
     }
 
     /// The basis in use.
@@ -448,7 +437,6 @@ impl Rds {
     }
 
     fn recompute(&mut self) {
-        self.factor = None;
         let request = self.request.clone();
         let sizes = self.sizes;
         let work = move |report: &dyn Fn(f32)| Built::of(&request, sizes, report);
@@ -474,10 +462,11 @@ impl Rds {
     /// next step.
     fn swap(&mut self, result: Result<Built, SolverError>) -> Result<(), SolverError> {
         self.pending = None;
-        let built = result.map_err(|e| named(e, RDS.name))?;
+        let mut built = result.map_err(|e| named(e, RDS.name))?;
         (self.groups, self.drag_revision) = (Vec::new(), None);
+        let response = built.response.take();
         self.carry(built);
-        self.prepare_factor();
+        self.factor.renew(&self.request, response);
         Ok(())
     }
 
@@ -498,21 +487,14 @@ impl Rds {
         let basis = if groups.is_empty() {
             base.clone()
         } else {
-            let made = self.factor.take().and_then(|job| job.wait().ok());
-            let response = match self.built.response.take().or(made) {
-                Some(response) => response,
-                None => StaticResponse::new(&self.request.problem(&self.request.masses()))?,
-            };
+            let response = self.factor.get(&self.request)?;
             let mesh = &self.request.mesh;
-            let augmented = response.augment(&base.modal(mesh), mesh, &groups);
-            self.built.response = Some(response);
-            let augmented = augmented?;
+            let augmented = response.augment(&base.modal(mesh), mesh, &groups)?;
             let shapes = (0..augmented.modes()).map(|j| augmented.shape(j)).collect();
             ReducedBasis { modes: base.modes, loads: base.loads, stiffness: augmented.eigenvalues.clone(), shapes }
         };
         let cubature = self.built.shell.cubature().cloned();
-        let mut built = Built::with(&self.request, base, basis, cubature)?;
-        built.response = self.built.response.take();
+        let built = Built::with(&self.request, base, basis, cubature)?;
         self.carry(built);
         self.groups = groups;
         Ok(())
@@ -659,6 +641,10 @@ impl Solver for Rds {
 
     fn poll(&mut self) -> Result<(), SolverError> {
         self.poll_pending()
+    }
+
+    fn expect_drags(&mut self) {
+        self.factor.expect(&self.request);
     }
 
     fn info(&self) -> Vec<(&'static str, f64)> {
