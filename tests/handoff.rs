@@ -2,6 +2,7 @@
 //! background work shown while paused, no exploded frames after a divergence, panics caught, and a
 //! hanging solver seen stuck and left behind.
 
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -24,6 +25,8 @@ struct Counter {
     work: Arc<Mutex<Option<f32>>>,
     drags: DragSet,
     checkpointed: bool,
+    /// How often the simulation thread said drags are to be expected.
+    expected: Arc<AtomicU32>,
 }
 
 impl Counter {
@@ -39,6 +42,7 @@ impl Counter {
             work: Arc::default(),
             drags: DragSet::new(n, true),
             checkpointed: false,
+            expected: Arc::default(),
         }
     }
 
@@ -103,6 +107,9 @@ impl Solver for Counter {
     fn progress(&self) -> Option<Progress> {
         let fraction = *self.work.lock().ok()?;
         fraction.map(|fraction| Progress { label: "test work".into(), fraction })
+    }
+    fn expect_drags(&mut self) {
+        self.expected.fetch_add(1, Ordering::Relaxed);
     }
 }
 
@@ -333,4 +340,17 @@ fn a_long_step_that_a_reset_or_a_switch_would_discard_stops_at_its_next_checkpoi
     sim.send(Command::Replace(Counter::boxed(20, 0.01, Duration::ZERO)));
     assert!(wait_for(&mut sim, |s| s.status == SimStatus::Running && s.steps > 20), "the new solver did not run");
     assert!(reset.elapsed() < Duration::from_secs(5));
+}
+
+/// The simulation thread tells every solver it is given, at the start and on a switch, that drags
+/// are to be expected (so the modal methods make their drags' factor ahead, in the background).
+#[test]
+fn every_solver_the_thread_is_given_is_told_to_expect_drags() {
+    let (first, second) = (Counter::new(10, 0.01, Duration::ZERO), Counter::new(10, 0.01, Duration::ZERO));
+    let (told_first, told_second) = (first.expected.clone(), second.expected.clone());
+    let mut sim = SimHandle::spawn(Box::new(first), true, Pacing::AsFastAsPossible);
+    sim.send(Command::Replace(Box::new(second)));
+    sim.send(Command::StepOnce);
+    assert!(wait_for(&mut sim, |s| s.steps >= 1), "the second solver steps");
+    assert_eq!((told_first.load(Ordering::Relaxed), told_second.load(Ordering::Relaxed)), (1, 1));
 }
