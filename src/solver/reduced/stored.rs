@@ -7,6 +7,8 @@
 //! were computed (little-endian `f64`), so a basis read back is the one that was built, bit for bit,
 //! and a run from it takes the same steps. A file that does not fit (wrong sizes, a mode count that
 //! differs, an element number out of range) is ignored and the basis rebuilt, as in [`Cache`].
+//! The key does not see the code: a change to how the basis or the cubature is built must change
+//! the version in `BASIS` or `CUBATURE`, or an old file would be read as the new method's.
 
 use glam::DVec3;
 
