@@ -251,9 +251,11 @@ fn a_factor_made_ahead_for_the_drags_gives_the_same_steps() {
     let run = |expect: bool| {
         let (_dir, cache) = fresh_cache(&format!("expect-{expect}"));
         let mut s = ModalSolver::with_cache(&setup, Variant::Mwts, cache).unwrap();
+        assert!(!s.drags_prepared(), "no factor before a drag or the word that drags will come");
         if expect {
             s.expect_drags();
         }
+        assert_eq!(s.drags_prepared(), expect);
         let id = s.drags_mut().add(Drag { vertex: tip, kind: DragKind::Position(target) }).unwrap();
         let mut shapes = Vec::new();
         for _ in 0..10 {
@@ -263,6 +265,7 @@ fn a_factor_made_ahead_for_the_drags_gives_the_same_steps() {
         s.drags_mut().remove(id).unwrap();
         s.set_param("k_bend", 1.0).unwrap();
         s.wait_for_modes().unwrap();
+        assert_eq!(s.drags_prepared(), expect, "the new shell's factor is made ahead again");
         s.drags_mut().add(Drag { vertex: tip, kind: DragKind::Position(target) }).unwrap();
         for _ in 0..10 {
             s.step().unwrap();

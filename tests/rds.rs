@@ -172,20 +172,25 @@ fn a_basis_read_from_the_cache_takes_the_same_steps_under_a_drag() {
     let rest = setup.mesh.positions();
     let tip = (0..rest.len()).max_by(|&a, &b| rest[a].x.total_cmp(&rest[b].x)).unwrap();
     let target = rest[tip] + DVec3::new(0.0, 0.1, 0.05);
+    let files = |kind: &str| {
+        let names = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap());
+        names.filter(|n| n.starts_with(kind)).map(|n| dir.path().join(n)).collect::<Vec<_>>()
+    };
     let run = |expect: bool| {
+        let stored = !files("rds-basis").is_empty();
         let mut s = Rds::with_cache(&setup, cache.clone()).unwrap();
+        let built_here = s.drags_prepared();
         if expect {
             s.expect_drags();
+            assert!(s.drags_prepared(), "the factor is at hand or being made");
         }
+        // Built here, the basis brings its factor; read from the cache, it brings none.
+        assert_eq!(built_here, !stored, "drags expected: {expect}");
         s.drags_mut().add(Drag { vertex: tip, kind: DragKind::Position(target) }).unwrap();
         (0..20).for_each(|_| {
             s.step().unwrap();
         });
         (s.basis().clone(), s.positions().to_vec())
-    };
-    let files = |kind: &str| {
-        let names = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap());
-        names.filter(|n| n.starts_with(kind)).map(|n| dir.path().join(n)).collect::<Vec<_>>()
     };
     let (built, fresh) = run(false);
     assert_eq!((files("modes").len(), files("rds-basis").len()), (1, 1));

@@ -110,11 +110,11 @@ pub trait Solver: Send {
         Ok(())
     }
 
-    /// A user may drag soon (the viewer says so when it opens a scene): make ready in the background
-    /// what a first drag needs (the modal methods' and `rds`'s factored stiffness for the drags'
-    /// static responses), so that the drag does not wait for it in a step. Headless runs do not call
-    /// it and make that work when a drag comes, if one does. Methods whose drags need nothing
-    /// prepared keep the default, which does nothing.
+    /// A user may drag soon (the viewer says so when it opens a scene): make ready in the
+    /// background what a first drag needs (the modal methods' and `rds`'s factored stiffness for
+    /// the drags' static responses), so that the drag does not wait for it in a step. Headless runs
+    /// do not call it and make that work when a drag comes, if one does. Methods whose drags need
+    /// nothing prepared keep the default, which does nothing.
     fn expect_drags(&mut self) {}
 
     /// Read-only figures describing the state in use, as (label, value), for the UI (e.g. the number

@@ -273,6 +273,10 @@ impl Solver for Parts {
         Ok(())
     }
 
+    fn expect_drags(&mut self) {
+        self.parts.iter_mut().for_each(|p| p.solver.expect_drags());
+    }
+
     fn info(&self) -> Vec<(&'static str, f64)> {
         let mut info = vec![("parts", self.parts.len() as f64)];
         info.extend(self.parts[0].solver.info());

@@ -350,6 +350,9 @@ impl Solver for Scripted {
     fn poll(&mut self) -> Result<(), SolverError> {
         self.inner.poll()
     }
+    fn expect_drags(&mut self) {
+        self.inner.expect_drags();
+    }
     fn info(&self) -> Vec<(&'static str, f64)> {
         self.inner.info()
     }

@@ -1,7 +1,7 @@
 //! On-disk cache of modal analyses, keyed by a hash of everything the modes depend on (mesh,
-//! anchors, masses, stiffnesses, mode count), so a scene reopens without recomputing. What is built
-//! on the modes (`rds`'s basis and cubature, [`crate::solver::reduced::stored`]) is kept in the same
-//! folder and file layout, under keys derived from the modes' ([`derived_key`]).
+//! anchors, masses, stiffnesses, mode count), so a scene reopens without recomputing. What is
+//! built on the modes (`rds`'s basis and cubature, [`crate::solver::reduced::stored`]) is kept in
+//! the same folder and file layout, under keys derived from the modes' ([`derived_key`]).
 //!
 //! Default location ([`Cache::from_env`]): `$SHELLWARP_CACHE_DIR`, else `$XDG_CACHE_HOME/shellwarp`,
 //! else `~/.cache/shellwarp`. Files are written atomically (temporary file, then rename); an
@@ -134,22 +134,34 @@ pub fn derived_key(p: &ModalProblem<'_>, extra: &[u8]) -> u64 {
     fnv(extra.iter().copied(), key(p))
 }
 
+/// A count stored as a number: `Some` if it is a whole number from 0 to `max`.
+pub fn count(word: f64, max: usize) -> Option<usize> {
+    (word >= 0.0 && word.fract() == 0.0 && word <= max as f64).then_some(word as usize)
+}
+
+/// Per-vertex vectors stored one after another, `3n` numbers each.
+pub fn vectors(words: &[f64], n: usize) -> Vec<Vec<DVec3>> {
+    words
+        .chunks_exact(3 * n.max(1))
+        .map(|s| s.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])).collect())
+        .collect()
+}
+
 /// The analysis in `words`, if they are one of `p`'s: sizes that fit `p`.
 fn decode(p: &ModalProblem<'_>, words: Vec<f64>) -> Option<ModalAnalysis> {
     let n = p.mesh.vertex_count();
-    let (m, rigid, solves) = (*words.first()? as usize, *words.get(1)? as usize, *words.get(2)? as usize);
+    let most = words.len();
+    let (m, rigid, solves) =
+        (count(*words.first()?, most)?, count(*words.get(1)?, 6)?, count(*words.get(2)?, usize::MAX)?);
     let expected = p.modes + if p.keep_rigid { rigid } else { 0 };
-    if m != expected || words.len() != 7 + 2 * m + 3 * n * m {
+    if m != expected || Some(words.len()) != (3 * n).checked_mul(m).and_then(|s| s.checked_add(7 + 2 * m)) {
         return None;
     }
     let timings = PrecomputeTimings { assembly: words[3], factorisation: words[4], eigen: words[5] };
     let lambda_max = words[6];
     let values = words[7..7 + m].to_vec();
     let residuals = words[7 + m..7 + 2 * m].to_vec();
-    let shapes: Vec<Vec<DVec3>> = words[7 + 2 * m..]
-        .chunks_exact(3 * n)
-        .map(|s| s.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])).collect())
-        .collect();
+    let shapes = vectors(&words[7 + 2 * m..], n);
     let basis = ModalBasis::new(p.mesh, values, &shapes);
     Some(ModalAnalysis { basis, residuals, lambda_max, rigid_modes: rigid, timings, solves })
 }

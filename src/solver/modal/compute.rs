@@ -26,6 +26,7 @@ use crate::solver::params::{
     self,
     shared::{DENSITY, K_AREA, K_BEND, K_LENGTH},
 };
+use crate::solver::supersede::checkpoint;
 
 /// What to analyse.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -160,6 +161,8 @@ pub fn factored(problem: &ModalProblem<'_>) -> Result<Factored, SolverError> {
     let (k, shift, mass) = (&mut system.k, system.shift, &system.mass);
     k.add_diagonal(&mass.iter().map(|m| -shift * m).collect::<Vec<_>>());
     let assembly = t0.elapsed().as_secs_f64();
+    // A superseded background run (an analysis, the drags' factor) stops here, before the factor.
+    checkpoint();
     let t1 = Instant::now();
     let points: Vec<DVec3> = system.dofs.free_vertices().iter().map(|&v| problem.mesh.positions()[v]).collect();
     let order: Vec<usize> = nested_dissection(&points, &k.block_adjacency())

@@ -335,6 +335,11 @@ impl ModalSolver {
         }
     }
 
+    /// Whether the drags' factor is at hand or being made ([`Solver::expect_drags`]).
+    pub fn drags_prepared(&self) -> bool {
+        self.factor.prepared()
+    }
+
     /// Block until a background recomputation (if any) has finished, and swap its basis in: for
     /// deterministic runs (tests, headless renders), where the swap must not depend on timing.
     pub fn wait_for_modes(&mut self) -> Result<(), SolverError> {

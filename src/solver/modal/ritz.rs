@@ -13,9 +13,10 @@
 //! the augmented basis is a [`ModalBasis`] like any other, and every modal method runs on it
 //! unchanged. Its span contains the modes', so swapping it in projects the state exactly.
 //!
-//! The factor ([`DragFactor`]) is made at the first position drag, which then waits about a second on
-//! the creature; once drags are expected ([`crate::solver::Solver::expect_drags`]: the viewer) it is
-//! made ahead, in the background.
+//! The factor ([`DragFactor`]) is made at the first position drag, which then waits about a
+//! second on the creature, unless one is at hand (`rds` keeps the one its basis was built with).
+//! Once drags are expected ([`crate::solver::Solver::expect_drags`]: the viewer) it is made ahead,
+//! in the background.
 
 use glam::DVec3;
 use nalgebra::{DMatrix, SymmetricEigen};
@@ -51,6 +52,8 @@ impl std::fmt::Debug for StaticResponse {
 pub(crate) struct DragFactor {
     ready: Option<StaticResponse>,
     making: Option<Background<StaticResponse>>,
+    /// The background job's requests: cancelled when its factor is no longer wanted.
+    generation: Generation,
     /// Drags are expected: a missing factor is made ahead, in the background.
     expected: bool,
 }
@@ -63,19 +66,25 @@ impl DragFactor {
         if self.ready.is_none() && self.making.is_none() {
             let request = request.clone();
             let work = move |_: &dyn Fn(f32)| StaticResponse::new(&request.problem(&request.masses()));
-            let generation = Generation::default();
-            self.making =
-                Some(Background::start("shellwarp-drag-factor", "factor", &generation, Default::default(), work));
+            let job = Background::start("shellwarp-drag-factor", "factor", &self.generation, Default::default(), work);
+            self.making = Some(job);
         }
     }
 
-    /// The shell changed (`request` describes the new one): drop the old factor and take `ready`
-    /// (one made with the new shell's basis) if given, else make one ahead if drags are expected.
+    /// The shell changed (`request` describes the new one): drop the old factor (stopping one
+    /// being made at its next checkpoint) and take `ready` (made with the new shell's basis) if
+    /// given, else make one ahead if drags are expected.
     pub(crate) fn renew(&mut self, request: &Request, ready: Option<StaticResponse>) {
+        self.generation.cancel_all();
         (self.ready, self.making) = (ready, None);
         if self.expected {
             self.expect(request);
         }
+    }
+
+    /// Whether the factor is at hand or being made.
+    pub(crate) fn prepared(&self) -> bool {
+        self.ready.is_some() || self.making.is_some()
     }
 
     /// The factor of `request`'s shell: the one at hand, else the background one (waiting for it),
@@ -87,6 +96,12 @@ impl DragFactor {
             (None, None) => StaticResponse::new(&request.problem(&request.masses()))?,
         };
         Ok(self.ready.insert(ready))
+    }
+}
+
+impl Drop for DragFactor {
+    fn drop(&mut self) {
+        self.generation.cancel_all();
     }
 }
 

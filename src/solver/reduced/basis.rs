@@ -474,13 +474,15 @@ mod tests {
         let analysis = analyse(&p, &|_| {}).unwrap();
         let (basis, factor) = build(&p, &analysis, None, true, 7, &|_| {}).unwrap();
         assert_eq!((basis.modes, basis.loads, basis.len()), (4, 3, 14));
-        // With the analysis's own factor (the modes just computed) the basis is the same, bit for bit,
-        // and that factor comes back for the drags.
+        // With the analysis's own factor (the modes just computed) the basis is the same, bit for
+        // bit, and that factor comes back for the drags.
         let (fresh, analysis_factor) = analyse_factored(&p, &|_| {}).unwrap();
         assert_eq!(fresh.basis, analysis.basis);
+        let made = analysis_factor.timings;
         let (reused, back) = build(&p, &fresh, Some(analysis_factor), true, 7, &|_| {}).unwrap();
         assert_eq!(reused, basis);
-        assert!(factor.is_some() && back.is_some());
+        // The factor given is the one used and returned (its clock readings), not a new one.
+        assert!(factor.is_some_and(|f| f.timings != made) && back.is_some_and(|f| f.timings == made));
         for j in 0..4 {
             assert_eq!(basis.shapes[j], analysis.basis.shape(j), "mode {j}");
         }

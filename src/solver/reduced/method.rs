@@ -16,9 +16,10 @@
 //!
 //! **Drags** are stiff springs ([`super::springs`]); while position drags last, the static responses
 //! to the dragged vertices join the basis, as in the modal methods. They are solved with the factor
-//! of `K − σM` the basis was built with (the load responses and derivatives need it), kept with the
-//! basis. A basis read from the cache ([`super::stored`]) has none: one is made at the first drag,
-//! or ahead in the background once drags are expected ([`Solver::expect_drags`]).
+//! of `K − σM` the basis was built with (the load responses and derivatives need it), handed to the
+//! drags' [`DragFactor`]. A basis read from the cache ([`super::stored`]) comes without one: it is
+//! made at the first drag, or ahead in the background once drags are expected
+//! ([`Solver::expect_drags`]).
 //!
 //! **Cubature.** With `solver.cubature` above 0 the energy is summed over an optimised cubature
 //! ([`super::cubature`]) fitted to the base basis after it is built (in the background like it);
@@ -448,6 +449,11 @@ impl Rds {
             Some(result) => self.swap(result),
             None => Ok(()),
         }
+    }
+
+    /// Whether the drags' factor is at hand or being made ([`Solver::expect_drags`]).
+    pub fn drags_prepared(&self) -> bool {
+        self.factor.prepared()
     }
 
     /// Block until a background rebuild (if any) has finished and swap it in (deterministic runs).

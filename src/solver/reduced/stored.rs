@@ -4,17 +4,16 @@
 //! Each is keyed by the modal problem's key ([`cache::key`]: mesh, anchors, masses, stiffnesses,
 //! mode count) hashed on with what else it depends on: whether the load responses join and how many
 //! derivative directions are kept, and for the cubature its size. The numbers are stored as they
-//! were computed (little-endian `f64`), so a basis read back is the one that was built, bit for bit,
-//! and a run from it takes the same steps. A file that does not fit (wrong sizes, a mode count that
-//! differs, an element number out of range) is ignored and the basis rebuilt, as in [`Cache`].
+//! were computed (little-endian `f64`), so a basis read back is the one that was built, bit for
+//! bit, and a run from it takes the same steps. A file that does not fit (wrong sizes, a mode count
+//! that differs, an element number out of range) is ignored and the basis rebuilt, as in
+//! [`Cache`].
 //! The key does not see the code: a change to how the basis or the cubature is built must change
 //! the version in `BASIS` or `CUBATURE`, or an old file would be read as the new method's.
 
-use glam::DVec3;
-
 use super::basis::ReducedBasis;
 use super::energy::Cubature;
-use crate::solver::modal::cache::{self, Cache};
+use crate::solver::modal::cache::{self, Cache, count, vectors};
 use crate::solver::modal::compute::ModalProblem;
 
 /// Identifies a stored basis (and its layout's version).
@@ -56,15 +55,13 @@ impl Sizes {
 pub fn load_basis(cache: &Cache, p: &ModalProblem<'_>, sizes: Sizes) -> Option<ReducedBasis> {
     let words = cache.read_words("rds-basis", BASIS, sizes.basis_key(p))?;
     let n = p.mesh.vertex_count();
-    let (modes, loads, count) = (*words.first()? as usize, *words.get(1)? as usize, *words.get(2)? as usize);
-    if modes != p.modes || modes + loads > count || words.len() != 3 + count + 3 * n * count {
+    let most = words.len();
+    let (modes, loads, len) = (count(*words.first()?, most)?, count(*words.get(1)?, 3)?, count(*words.get(2)?, most)?);
+    if modes != p.modes || modes + loads > len || Some(most) != (3 * n + 1).checked_mul(len).map(|s| s + 3) {
         return None;
     }
-    let stiffness = words[3..3 + count].to_vec();
-    let shapes = words[3 + count..]
-        .chunks_exact(3 * n)
-        .map(|s| s.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])).collect())
-        .collect();
+    let stiffness = words[3..3 + len].to_vec();
+    let shapes = vectors(&words[3 + len..], n);
     Some(ReducedBasis { modes, loads, stiffness, shapes })
 }
 
@@ -76,15 +73,18 @@ pub fn store_basis(cache: &Cache, p: &ModalProblem<'_>, sizes: Sizes, basis: &Re
     cache.write_words("rds-basis", BASIS, sizes.basis_key(p), &words);
 }
 
-/// The stored cubature of `p` with `sizes`, if there is a valid one over at most `elements` elements.
+/// The stored cubature of `p` with `sizes`, if there is a valid one over at most `elements`
+/// elements.
 pub fn load_cubature(cache: &Cache, p: &ModalProblem<'_>, sizes: Sizes, elements: usize) -> Option<Cubature> {
     let words = cache.read_words("rds-cubature", CUBATURE, sizes.cubature_key(p))?;
     let (training_error, rest) = words.split_first()?;
-    let whole = |e: f64| e >= 0.0 && e.fract() == 0.0 && (e as usize) < elements;
-    if rest.len() % 2 != 0 || rest.chunks_exact(2).any(|c| !whole(c[0]) || c[1] < 0.0) {
+    if rest.len() % 2 != 0 || rest.chunks_exact(2).any(|c| c[1] < 0.0) {
         return None;
     }
-    let elements = rest.chunks_exact(2).map(|c| (c[0] as usize, c[1])).collect();
+    let elements = rest
+        .chunks_exact(2)
+        .map(|c| Some((count(c[0], elements.checked_sub(1)?)?, c[1])))
+        .collect::<Option<Vec<_>>>()?;
     Some(Cubature { elements, training_error: *training_error })
 }
 
@@ -125,6 +125,17 @@ mod tests {
         }
         let q = ModalProblem { modes: 2, ..p };
         assert!(load_basis(&cache, &q, sizes).is_none(), "another mode count");
+        // A damaged file is ignored (the basis is then built again), never trusted.
+        let path = cache.file("rds-basis", sizes.basis_key(&p)).unwrap();
+        let good = std::fs::read(&path).unwrap();
+        for at in [0, 12, 30, good.len() / 2, good.len() - 1] {
+            let mut bad = good.clone();
+            bad[at] ^= 0x04;
+            std::fs::write(&path, &bad).unwrap();
+            assert!(load_basis(&cache, &p, sizes).is_none(), "flipped byte {at} of {}", good.len());
+        }
+        std::fs::write(&path, &good[..good.len() - 9]).unwrap();
+        assert!(load_basis(&cache, &p, sizes).is_none(), "truncated");
 
         let cubature = Cubature { elements: vec![(5, 0.5), (17, 2.25)], training_error: 1e-3 };
         store_cubature(&cache, &p, sizes, &cubature);
