@@ -16,7 +16,7 @@ use super::basis::ModalBasis;
 use super::cache::Cache;
 use super::compute::{Factored, ModalAnalysis, ModalProblem, analyse_factored};
 use super::dynamics::{ModalDynamics, ModalParams, Shape};
-use super::ritz::{self, DragFactor};
+use super::ritz::{self, DragFactor, Made, StaticResponse};
 use super::rotation_strain::RotationStrain;
 use crate::energy::ShellStiffness;
 use crate::mesh::TriMesh;
@@ -172,6 +172,12 @@ impl Request {
         }
     }
 
+    /// What makes the factor of this shell for the drags' static responses (on any thread).
+    pub(crate) fn drag_factor(&self) -> impl FnOnce() -> Made + Send + 'static {
+        let request = self.clone();
+        move || StaticResponse::new(&request.problem(&request.masses()))
+    }
+
     /// Cached or freshly computed (and then cached) modes.
     pub(crate) fn run(&self, progress: &dyn Fn(f32)) -> Result<ModalAnalysis, SolverError> {
         self.run_factored(progress).map(|(a, _)| a)
@@ -312,7 +318,7 @@ impl ModalSolver {
         let basis = if groups.is_empty() {
             self.analysis.basis.clone()
         } else {
-            let response = self.factor.get(&self.request)?;
+            let response = self.factor.get(self.request.drag_factor())?;
             response.augment(&self.analysis.basis, &self.request.mesh, &groups)?
         };
         self.dynamics.replace_basis(basis, &self.request.masses());
@@ -357,7 +363,7 @@ impl ModalSolver {
         self.dynamics.replace_basis(analysis.basis.clone(), &masses);
         self.analysis = analysis;
         // The responses belong to the old shell: refit them to the new one at the next step.
-        self.factor.renew(&self.request, None);
+        self.factor.renew(None, self.request.drag_factor());
         (self.groups, self.drag_revision) = (Vec::new(), None);
         Ok(())
     }
@@ -458,7 +464,7 @@ impl Solver for ModalSolver {
     }
 
     fn expect_drags(&mut self) {
-        self.factor.expect(&self.request);
+        self.factor.expect(self.request.drag_factor());
     }
 
     fn info(&self) -> Vec<(&'static str, f64)> {

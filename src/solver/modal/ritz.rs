@@ -23,7 +23,6 @@ use nalgebra::{DMatrix, SymmetricEigen};
 
 use super::basis::ModalBasis;
 use super::compute::{Factored, ModalProblem, factored};
-use super::method::Request;
 use crate::mesh::TriMesh;
 use crate::solver::supersede::{Background, Generation};
 use crate::solver::{DragKind, DragSet, SolverError};
@@ -47,6 +46,9 @@ impl std::fmt::Debug for StaticResponse {
     }
 }
 
+/// A factor made for the drags, or why it could not be.
+pub(crate) type Made = Result<StaticResponse, SolverError>;
+
 /// The drags' factor of one shell: at hand, being made in the background, or not yet made.
 #[derive(Default)]
 pub(crate) struct DragFactor {
@@ -59,26 +61,25 @@ pub(crate) struct DragFactor {
 }
 
 impl DragFactor {
-    /// Drags are expected from now on: start making the factor of `request`'s shell in the
-    /// background unless one is at hand or under way.
-    pub(crate) fn expect(&mut self, request: &Request) {
+    /// Drags are expected from now on: start `make` (which makes the shell's factor) in the
+    /// background unless a factor is at hand or under way.
+    pub(crate) fn expect(&mut self, make: impl FnOnce() -> Made + Send + 'static) {
         self.expected = true;
         if self.ready.is_none() && self.making.is_none() {
-            let request = request.clone();
-            let work = move |_: &dyn Fn(f32)| StaticResponse::new(&request.problem(&request.masses()));
+            let work = move |_: &dyn Fn(f32)| make();
             let job = Background::start("shellwarp-drag-factor", "factor", &self.generation, Default::default(), work);
             self.making = Some(job);
         }
     }
 
-    /// The shell changed (`request` describes the new one): drop the old factor (stopping one
-    /// being made at its next checkpoint) and take `ready` (made with the new shell's basis) if
-    /// given, else make one ahead if drags are expected.
-    pub(crate) fn renew(&mut self, request: &Request, ready: Option<StaticResponse>) {
+    /// The shell changed: drop the old factor (stopping one being made at its next checkpoint) and
+    /// take `ready` (made with the new shell's basis) if given, else, if drags are expected, start
+    /// `make` (which makes the new shell's factor) in the background.
+    pub(crate) fn renew(&mut self, ready: Option<StaticResponse>, make: impl FnOnce() -> Made + Send + 'static) {
         self.generation.cancel_all();
         (self.ready, self.making) = (ready, None);
         if self.expected {
-            self.expect(request);
+            self.expect(make);
         }
     }
 
@@ -87,13 +88,13 @@ impl DragFactor {
         self.ready.is_some() || self.making.is_some()
     }
 
-    /// The factor of `request`'s shell: the one at hand, else the background one (waiting for it),
-    /// else one made here.
-    pub(crate) fn get(&mut self, request: &Request) -> Result<&StaticResponse, SolverError> {
+    /// The shell's factor: the one at hand, else the background one (waiting for it), else one
+    /// made here by `make`.
+    pub(crate) fn get(&mut self, make: impl FnOnce() -> Made) -> Result<&StaticResponse, SolverError> {
         let made = self.making.take().and_then(|job| job.wait().ok());
         let ready = match (self.ready.take(), made) {
             (Some(r), _) | (None, Some(r)) => r,
-            (None, None) => StaticResponse::new(&request.problem(&request.masses()))?,
+            (None, None) => make()?,
         };
         Ok(self.ready.insert(ready))
     }

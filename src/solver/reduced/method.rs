@@ -304,7 +304,7 @@ impl Rds {
             drag_revision: None,
         };
         let response = rds.built.response.take();
-        rds.factor.renew(&rds.request, response);
+        rds.factor.renew(response, rds.request.drag_factor());
         Ok(rds)
     }
 
@@ -472,7 +472,7 @@ impl Rds {
         (self.groups, self.drag_revision) = (Vec::new(), None);
         let response = built.response.take();
         self.carry(built);
-        self.factor.renew(&self.request, response);
+        self.factor.renew(response, self.request.drag_factor());
         Ok(())
     }
 
@@ -493,7 +493,7 @@ impl Rds {
         let basis = if groups.is_empty() {
             base.clone()
         } else {
-            let response = self.factor.get(&self.request)?;
+            let response = self.factor.get(self.request.drag_factor())?;
             let mesh = &self.request.mesh;
             let augmented = response.augment(&base.modal(mesh), mesh, &groups)?;
             let shapes = (0..augmented.modes()).map(|j| augmented.shape(j)).collect();
@@ -650,7 +650,7 @@ impl Solver for Rds {
     }
 
     fn expect_drags(&mut self) {
-        self.factor.expect(&self.request);
+        self.factor.expect(self.request.drag_factor());
     }
 
     fn info(&self) -> Vec<(&'static str, f64)> {
