@@ -152,7 +152,7 @@ fn decode(p: &ModalProblem<'_>, words: Vec<f64>) -> Option<ModalAnalysis> {
     let n = p.mesh.vertex_count();
     let most = words.len();
     let (m, rigid, solves) =
-        (count(*words.first()?, most)?, count(*words.get(1)?, 6)?, count(*words.get(2)?, usize::MAX)?);
+        (count(*words.first()?, most)?, count(*words.get(1)?, most)?, count(*words.get(2)?, usize::MAX)?);
     let expected = p.modes + if p.keep_rigid { rigid } else { 0 };
     if m != expected || Some(words.len()) != (3 * n).checked_mul(m).and_then(|s| s.checked_add(7 + 2 * m)) {
         return None;
