@@ -177,7 +177,7 @@ impl RotationStrain {
         crate::threads::in_pool(self.splits(), || {
             let drags = if due { &mut self.drags[..] } else { &mut [] };
             let rhs = RightSide { rhs: self.laplacian.rhs_mut(), scratch: &mut self.scratch };
-            self.pass.run(q, &self.loads, Some(rhs), force, drags);
+            self.pass.run(q, Some((&self.loads, &mut *force)), Some(rhs), drags);
             self.solve_positions(q, positions, force);
         });
         if due {
@@ -194,13 +194,13 @@ impl RotationStrain {
         self.pass.splits() || self.laplacian.splits()
     }
 
-    /// Positions `x(q)` and the generalised force of the forces set last, alone: no drag rows and no
-    /// load stiffness (for methods that keep their own, `rds`).
-    pub fn reconstruct(&mut self, q: &[f64], positions: &mut [DVec3], force: &mut [f64]) {
+    /// Positions `x(q)` alone: no generalised force, no drag rows and no load stiffness (for methods
+    /// that keep their own, `rds`).
+    pub fn reconstruct(&mut self, q: &[f64], positions: &mut [DVec3]) {
         crate::threads::in_pool(self.splits(), || {
             let rhs = RightSide { rhs: self.laplacian.rhs_mut(), scratch: &mut self.scratch };
-            self.pass.run(q, &self.loads, Some(rhs), force, &mut []);
-            self.solve_positions(q, positions, force);
+            self.pass.run(q, None, Some(rhs), &mut []);
+            self.place(q, positions);
         });
     }
 
@@ -210,7 +210,7 @@ impl RotationStrain {
     pub fn force_of(&mut self, q: &[f64], forces: &[DVec3]) -> Vec<f64> {
         self.set_forces(forces);
         let mut g = vec![0.0; q.len()];
-        self.pass.run(q, &self.loads, None, &mut g, &mut []);
+        self.pass.run(q, Some((&self.loads, &mut g)), None, &mut []);
         self.add_centroid_forces(&mut g);
         g
     }
@@ -218,6 +218,11 @@ impl RotationStrain {
     /// Finish an update after the pass: the net loads' work on the centroids, and the positions.
     fn solve_positions(&mut self, q: &[f64], positions: &mut [DVec3], force: &mut [f64]) {
         self.add_centroid_forces(force);
+        self.place(q, positions);
+    }
+
+    /// The positions from the right side the pass left: one solve, and the gauges' centroids.
+    fn place(&mut self, q: &[f64], positions: &mut [DVec3]) {
         let centroids: Vec<DVec3> =
             (self.centroid_modes.iter()).map(|modes| modes.iter().zip(q).map(|(c, qj)| *c * *qj).sum()).collect();
         self.laplacian.displacements(&centroids, &mut self.u);
@@ -275,7 +280,7 @@ impl RotationStrain {
         let (mut shifted, mut gj) = (q.to_vec(), vec![0.0; m]);
         for (j, step) in self.scales.iter().map(|&s| 1e-6 / s.max(f64::MIN_POSITIVE)).enumerate() {
             shifted[j] = q[j] + step;
-            self.pass.run(&shifted, &self.loads, None, &mut gj, &mut []);
+            self.pass.run(&shifted, Some((&self.loads, &mut gj)), None, &mut []);
             self.add_centroid_forces(&mut gj);
             shifted[j] = q[j];
             for i in 0..m {

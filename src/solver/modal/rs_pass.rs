@@ -234,15 +234,15 @@ impl TrianglePass {
     }
 
     /// One pass at `q`: the right side `rhs` of the reconstruction (one 3-vector per unknown, with
-    /// the scratch for the second half; not computed if `None`), the generalised force `force` of
-    /// the loads with moments `loads` (without the gauges' centroid terms), and the Jacobian rows
-    /// of every drag in `drags`.
+    /// the scratch for the second half; not computed if `None`), the generalised force of the loads
+    /// with moments `loads.0` into `loads.1` (without the gauges' centroid terms; not computed if
+    /// `None`, which halves the per-triangle work of a pass that only places the shell), and the
+    /// Jacobian rows of every drag in `drags`.
     pub fn run(
         &self,
         q: &[f64],
-        loads: &[Moments],
+        mut loads: Option<(&[Moments], &mut [f64])>,
         rhs: Option<RightSide<'_>>,
-        force: &mut [f64],
         drags: &mut [DragRows],
     ) {
         let (mut rhs, mut scratch) = match rhs {
@@ -254,7 +254,9 @@ impl TrianglePass {
             None => (None, None),
         };
         let rows = &*drags;
-        let half = |chunks, rhs| pulp::Arch::new().dispatch(Pass { pass: self, q, loads, chunks, rhs, drags: rows });
+        let moments = loads.as_ref().map(|(m, _)| *m);
+        let half =
+            |chunks, rhs| pulp::Arch::new().dispatch(Pass { pass: self, q, loads: moments, chunks, rhs, drags: rows });
         let start = self.second_unknowns.start;
         let (first_rhs, second_rhs) =
             (rhs.as_deref_mut().map(|r| (r, 0)), scratch.as_deref_mut().map(|s| (&mut s[..], start)));
@@ -264,7 +266,9 @@ impl TrianglePass {
         if let (Some(rhs), Some(scratch)) = (rhs, scratch) {
             rhs[self.second_unknowns.clone()].iter_mut().zip(scratch.iter()).for_each(|(b, s)| *b += *s);
         }
-        force.copy_from_slice(&sums[..self.modes]);
+        if let Some((_, force)) = loads.as_mut() {
+            force.copy_from_slice(&sums[..self.modes]);
+        }
         for (drag, rows) in drags.iter_mut().zip(sums[self.modes..].chunks_exact(3 * self.modes)) {
             drag.rows.copy_from_slice(rows);
         }
@@ -277,7 +281,7 @@ impl TrianglePass {
 struct Pass<'a> {
     pass: &'a TrianglePass,
     q: &'a [f64],
-    loads: &'a [Moments],
+    loads: Option<&'a [Moments]>,
     chunks: Range<usize>,
     rhs: Option<(&'a mut [Padded], usize)>,
     drags: &'a [DragRows],
@@ -299,7 +303,7 @@ impl pulp::WithSimd for Pass<'_> {
             rhs.fill(Padded::ZERO);
         }
         for c in chunks {
-            let (chunk, load) = (&pass.chunks[c], &loads[c]);
+            let (chunk, load) = (&pass.chunks[c], loads.map(|l| &l[c]));
             let rows = &pass.rows[c * 6 * m..(c + 1) * 6 * m];
             let mut change = [[[0.0; LANES]; 3]; 3];
             for g in 0..groups {
@@ -315,8 +319,10 @@ impl pulp::WithSimd for Pass<'_> {
                         }
                     }
                 }
-                let d = t.load_adjoint(simd, [vector::<S>(&load[0], g), vector::<S>(&load[1], g)]);
-                accumulate(simd, rows, g, d, &mut acc[g..m * groups]);
+                if let Some(load) = load {
+                    let d = t.load_adjoint(simd, [vector::<S>(&load[0], g), vector::<S>(&load[1], g)]);
+                    accumulate(simd, rows, g, d, &mut acc[g..m * groups]);
+                }
                 for (k, drag) in drags.iter().enumerate() {
                     let moments = &drag.moments[c];
                     let d = t.drag_adjoint(simd, [at::<S>(&moments[0][0], g), at::<S>(&moments[1][0], g)]);

@@ -136,7 +136,7 @@ impl ReducedShell {
 
     /// The positions `x(c)`.
     pub fn positions(&mut self, c: &[f64], x: &mut [DVec3]) {
-        self.rs.reconstruct(c, x, &mut self.force);
+        self.rs.reconstruct(c, x);
     }
 
     /// The elastic energy `E(x)` (by the cubature if one is set), J.
@@ -162,14 +162,14 @@ impl ReducedShell {
         let r = self.dim();
         let mut j = DMatrix::zeros(self.dofs.dofs(), r);
         let (mut at, mut moved) = (self.rest.clone(), self.rest.clone());
-        self.rs.reconstruct(c, &mut at, &mut self.force);
+        self.rs.reconstruct(c, &mut at);
         let (mut a, mut b) = (vec![0.0; self.dofs.dofs()], vec![0.0; self.dofs.dofs()]);
         self.dofs.gather(&at, &mut b);
         let mut shifted = c.to_vec();
         for k in 0..r {
             let s = JACOBIAN_STEP / self.scales[k];
             shifted[k] = c[k] + s;
-            self.rs.reconstruct(&shifted, &mut moved, &mut self.force);
+            self.rs.reconstruct(&shifted, &mut moved);
             shifted[k] = c[k];
             self.dofs.gather(&moved, &mut a);
             j.column_mut(k).iter_mut().zip(a.iter().zip(&b)).for_each(|(o, (p, m))| *o = (p - m) / s);
@@ -183,13 +183,11 @@ impl ReducedShell {
             return self.sampled_hessian(&c.elements, x, j);
         }
         self.shell.assemble_hessian(&mut self.hessian, x, HessianMode::Exact);
-        let mut hj = DMatrix::zeros(j.nrows(), j.ncols());
-        let mut out = vec![0.0; j.nrows()];
-        for k in 0..j.ncols() {
-            self.hessian.multiply(None, j.column(k).as_slice(), &mut out);
-            hj.column_mut(k).copy_from_slice(&out);
-        }
-        let p = j.transpose() * hj;
+        // `Jᵀ` column-major is `J` with its rows interleaved, and `(HJ)ᵀ = JᵀH` comes out likewise.
+        let jt = j.transpose();
+        let mut jth = DMatrix::zeros(j.ncols(), j.nrows());
+        self.hessian.multiply_interleaved(jt.as_slice(), j.ncols(), jth.as_mut_slice());
+        let p = jth * j;
         (&p + p.transpose()) * 0.5
     }
 
