@@ -24,6 +24,23 @@ fn scenes_lists_every_builtin_and_method() {
 }
 
 #[test]
+fn output_closed_early_ends_the_run_quietly() {
+    use std::process::Stdio;
+    // The reader goes away before the first line (as `| head -0` does): every write fails.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_shellwarp"))
+        .args(["eval", "--plan", "all"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("binary runs");
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("binary ends");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(out.status.code(), Some(0), "{err}");
+}
+
+#[test]
 fn sim_json_reports_steps_timing_energy_and_bbox() {
     let (code, out, err) = shellwarp(&["sim", "--scene", "cantilever", "--method", "rigid", "--steps", "4", "--json"]);
     assert_eq!(code, 0, "{err}");

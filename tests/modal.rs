@@ -179,7 +179,7 @@ fn the_exported_matrices_are_the_analysed_problem() {
     let sys = shellwarp::solver::modal::compute::system(&p).unwrap();
     let x: Vec<f64> = (0..n).map(|i| (0.37 * i as f64).sin()).collect();
     let mut assembled = vec![0.0; n];
-    sys.k.multiply(None, &x, &mut assembled);
+    sys.k.multiply(None, &x, 1, &mut assembled);
     let mut exported = vec![0.0; n];
     k.iter().for_each(|&(i, j, v)| exported[i] += v * x[j]);
     let scale = assembled.iter().map(|v| v.abs()).fold(0.0, f64::max);

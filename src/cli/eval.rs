@@ -43,7 +43,7 @@ pub struct EvalArgs {
 pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     if !args.merge.is_empty() {
         let sections = eval::merge(&args.merge, &args.out).context("merging")?;
-        println!("{} experiment(s) → {}", sections.len(), args.out.join("README.md").display());
+        say!("{} experiment(s) → {}", sections.len(), args.out.join("README.md").display());
         return Ok(ExitCode::SUCCESS);
     }
     if !args.case.is_empty() {
@@ -58,7 +58,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     if args.plan {
         let quick = if args.quick { " --quick" } else { "" };
         for c in &cases {
-            println!("shellwarp eval --case '{}'{quick} --out '{}'", c.id(), args.out.display());
+            say!("shellwarp eval --case '{}'{quick} --out '{}'", c.id(), args.out.display());
         }
         return Ok(ExitCode::SUCCESS);
     }
@@ -69,7 +69,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     ran?;
     let sections = merged.context("writing the report")?;
     let charts: usize = sections.iter().map(|s| s.charts.len()).sum();
-    println!(
+    say!(
         "{} case(s), {} experiment(s), {charts} chart(s) → {}",
         cases.len(),
         sections.len(),

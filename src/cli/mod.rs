@@ -1,5 +1,14 @@
 //! Subcommands. Each parses nothing itself: clap hands it typed arguments.
 
+/// `println!` that hands a failed write back as an error instead of panicking (standard output
+/// closed early, as by `| head`; `main` ends such a run quietly).
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)?
+    }};
+}
+
 mod eval;
 mod modes;
 mod render;

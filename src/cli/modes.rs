@@ -76,24 +76,24 @@ pub fn run(args: &ModesArgs) -> anyhow::Result<ExitCode> {
         total_seconds: t.assembly + t.factorisation + t.eigen,
     };
     if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+        say!("{}", serde_json::to_string(&report)?);
         return Ok(ExitCode::SUCCESS);
     }
-    println!("{}: {} vertices ({} anchored), {} modes", report.scene, report.vertices, report.anchored, report.modes);
-    println!("{:>5} {:>14} {:>12} {:>12}", "mode", "λ (1/s²)", "f (Hz)", "residual");
+    say!("{}: {} vertices ({} anchored), {} modes", report.scene, report.vertices, report.anchored, report.modes);
+    say!("{:>5} {:>14} {:>12} {:>12}", "mode", "λ (1/s²)", "f (Hz)", "residual");
     for (j, ((l, f), r)) in
         report.eigenvalues.iter().zip(&report.frequencies_hz).zip(&report.relative_residuals).enumerate()
     {
         let flag = if report.above_target.contains(&j) { " *" } else { "" };
-        println!("{j:>5} {l:>14.6e} {f:>12.5} {r:>12.2e}{flag}");
+        say!("{j:>5} {l:>14.6e} {f:>12.5} {r:>12.2e}{flag}");
     }
     for (j, floor) in above {
-        println!(
+        say!(
             "* mode {j}: residual above {MAX_RESIDUAL:.0e}: it stopped improving at round-off, under the bound \
              64ε·λmax/λ = {floor:.1e} (no f64 vector does better; see the docs of MAX_RESIDUAL)"
         );
     }
-    println!(
+    say!(
         "precompute: assembly {:.1} ms, factorisation {:.1} ms, eigen {:.1} ms ({} block solves of {}), total {:.1} ms",
         t.assembly * 1e3,
         t.factorisation * 1e3,

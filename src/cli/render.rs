@@ -87,9 +87,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     match (&args.out, &args.out_dir) {
         (Some(out), _) => {
             picture(solver.as_ref(), time, out)?;
-            println!("{}: {} steps of {} → {}", setup.scene.name, args.frames, solver.method(), out.display());
+            say!("{}: {} steps of {} → {}", setup.scene.name, args.frames, solver.method(), out.display());
         }
-        (None, Some(dir)) => println!(
+        (None, Some(dir)) => say!(
             "{}: {} steps of {}, {pictures} pictures (every {} steps) → {}/frame-*.png",
             setup.scene.name,
             args.frames,

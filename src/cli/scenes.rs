@@ -7,15 +7,15 @@ use shellwarp::solver::METHODS;
 
 /// Print every built-in scene (name, default method, description) and every method.
 pub fn run() -> anyhow::Result<ExitCode> {
-    println!("Built-in scenes:");
+    say!("Built-in scenes:");
     for (name, text) in BUILTIN {
         let origin = Origin { label: format!("assets/scenes/{name}.toml"), dir: Default::default() };
         let scene = parse(text, &origin, &[])?;
-        println!("  {name:<16} {:<12} {}", scene.solver.method, scene.description);
+        say!("  {name:<16} {:<12} {}", scene.solver.method, scene.description);
     }
-    println!("\nMethods:");
+    say!("\nMethods:");
     for m in METHODS {
-        println!("  {:<16} {}", m.name, m.summary);
+        say!("  {:<16} {}", m.name, m.summary);
     }
     Ok(ExitCode::SUCCESS)
 }

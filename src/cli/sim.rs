@@ -194,9 +194,9 @@ pub fn run(args: &SimArgs) -> anyhow::Result<ExitCode> {
         estimated_error,
     };
     if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+        say!("{}", serde_json::to_string(&report)?);
     } else {
-        println!(
+        say!(
             "{} with {}: {} vertices, {} steps of {:.5} s, mean step {:.3} ms (max {:.3} ms), energy {:.6e} J",
             report.scene,
             report.method,
@@ -207,16 +207,20 @@ pub fn run(args: &SimArgs) -> anyhow::Result<ExitCode> {
             report.step_seconds.max * 1e3,
             report.final_energy
         );
-        println!("bounding box: {:?} .. {:?}", report.bbox_min, report.bbox_max);
+        say!("bounding box: {:?} .. {:?}", report.bbox_min, report.bbox_max);
         let estimate = report.estimated_error.map_or(String::new(), |e| format!(", estimated error {:.2}%", 100.0 * e));
-        println!("area change {:+.3}%{estimate}", 100.0 * report.area_change);
+        say!("area change {:+.3}%{estimate}", 100.0 * report.area_change);
         if report.unconverged_steps > 0 {
-            println!(
+            say!(
                 "{} of {} steps stopped above the solver tolerance (last relative residual {:.2e})",
-                report.unconverged_steps, report.steps, report.final_relative_residual
+                report.unconverged_steps,
+                report.steps,
+                report.final_relative_residual
             );
         }
-        report.notes.iter().for_each(|n| println!("note: {n}"));
+        for n in &report.notes {
+            say!("note: {n}");
+        }
     }
     match &report.diverged {
         Some(reason) => {

@@ -234,27 +234,23 @@ impl BlockAssembler {
         self.matrix.as_ref()
     }
 
-    /// `out = A v` for the current values, or for `values` in this pattern if given.
-    pub fn multiply(&self, values: Option<&[f64]>, v: &[f64], out: &mut [f64]) {
+    /// `out = A V` for the current values, or for `values` in this pattern if given, with the `r`
+    /// vectors of `V` interleaved: entry `i` of vector `k` at `v[i r + k]`, and so in `out`. One pass
+    /// over the matrix for all of them (`r` separate products would each stream the whole matrix).
+    pub fn multiply(&self, values: Option<&[f64]>, v: &[f64], r: usize, out: &mut [f64]) {
         let vals = values.unwrap_or(self.matrix.val());
         let sym = self.matrix.symbolic();
         let (col_ptr, row_idx) = (sym.col_ptr(), sym.row_idx());
         out.fill(0.0);
-        for (j, &vj) in v.iter().enumerate() {
-            for k in col_ptr[j]..col_ptr[j + 1] {
-                out[row_idx[k]] += vals[k] * vj;
+        if r == 1 {
+            // The common single product (one per iteration of a solver), without the slices.
+            for (j, &vj) in v.iter().enumerate() {
+                for k in col_ptr[j]..col_ptr[j + 1] {
+                    out[row_idx[k]] += vals[k] * vj;
+                }
             }
+            return;
         }
-    }
-
-    /// `out = A V` for the current values, with the `r` vectors of `V` interleaved: entry `i` of
-    /// vector `k` at `v[i r + k]`, and so in `out`. One pass over the matrix for all of them (`r`
-    /// separate products would each stream the whole matrix).
-    pub fn multiply_interleaved(&self, v: &[f64], r: usize, out: &mut [f64]) {
-        let vals = self.matrix.val();
-        let sym = self.matrix.symbolic();
-        let (col_ptr, row_idx) = (sym.col_ptr(), sym.row_idx());
-        out.fill(0.0);
         for (j, vj) in v.chunks_exact(r).enumerate() {
             for k in col_ptr[j]..col_ptr[j + 1] {
                 let (a, i) = (vals[k], row_idx[k]);
@@ -322,7 +318,7 @@ mod tests {
         assert!(BlockAssembler::new(&dofs, [&[0usize, 7][..]]).is_err());
         let v = [1.0, 0.0, 0.0, 0.0, 0.0, 2.0];
         let mut out = [0.0; 6];
-        a.multiply(None, &v, &mut out);
+        a.multiply(None, &v, 1, &mut out);
         let dense = a.to_dense();
         for i in 0..6 {
             assert_eq!(out[i], dense[i][0] + 2.0 * dense[i][5]);
@@ -331,9 +327,9 @@ mod tests {
         let columns = [v, [0.5, -1.0, 3.0, 0.0, 2.5, -4.0], [0.0, 0.0, 1.0, 1.0, 0.0, 0.0]];
         let interleaved: Vec<f64> = (0..6).flat_map(|i| columns.map(|c| c[i])).collect();
         let mut both = vec![f64::NAN; 18];
-        a.multiply_interleaved(&interleaved, 3, &mut both);
+        a.multiply(None, &interleaved, 3, &mut both);
         for (k, c) in columns.iter().enumerate() {
-            a.multiply(None, c, &mut out);
+            a.multiply(None, c, 1, &mut out);
             assert!((0..6).all(|i| (both[3 * i + k] - out[i]).abs() <= 1e-12 * out[i].abs()), "vector {k}");
         }
     }

@@ -212,7 +212,7 @@ impl ShellModel {
     pub(crate) fn rest_stiffness_product(&mut self, v: &[f64], out: &mut [f64]) {
         self.rest_stiffness();
         if let Some(k0) = &self.k0 {
-            self.asm.multiply(Some(k0), v, out);
+            self.asm.multiply(Some(k0), v, 1, out);
         }
     }
 

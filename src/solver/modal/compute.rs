@@ -149,7 +149,7 @@ impl Factored {
     /// diagonal, so no second copy of the stiffness's values is kept.
     pub fn multiply_unshifted(&self, x: &[f64], out: &mut [f64]) {
         let ModalSystem { k, mass, shift, .. } = &self.system;
-        k.multiply(None, x, out);
+        k.multiply(None, x, 1, out);
         out.iter_mut().zip(x).zip(mass).for_each(|((o, x), m)| *o += shift * m * x);
     }
 }
@@ -348,9 +348,9 @@ mod tests {
         let plain = system(&problem).unwrap();
         let x: Vec<f64> = (0..factor.system.mass.len()).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
         let (mut want, mut got, mut shifted) = (vec![0.0; x.len()], vec![0.0; x.len()], vec![0.0; x.len()]);
-        plain.k.multiply(None, &x, &mut want);
+        plain.k.multiply(None, &x, 1, &mut want);
         factor.multiply_unshifted(&x, &mut got);
-        factor.system.k.multiply(None, &x, &mut shifted);
+        factor.system.k.multiply(None, &x, 1, &mut shifted);
         let gap = |a: &[f64]| want.iter().zip(a).map(|(w, v)| (w - v).abs()).fold(0.0, f64::max);
         let scale = want.iter().map(|v| v.abs()).fold(0.0, f64::max);
         eprintln!("largest gap to Kx: {:.1e} unshifted, {:.1e} shifted (of {scale:.1e})", gap(&got), gap(&shifted));

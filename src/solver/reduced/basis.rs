@@ -228,14 +228,14 @@ pub fn derivatives_of(
     let mut asm = shell.hessian_pattern(dofs).map_err(numerical)?;
     let mut minus = asm.clone();
     let rest = problem.mesh.positions();
-    let reduced: Vec<Vec<f64>> = modes
-        .iter()
-        .map(|u| {
-            let mut v = vec![0.0; dim];
-            dofs.gather(u, &mut v);
-            v
-        })
-        .collect();
+    // The modes gathered to the free DOFs and interleaved (entry `d` of mode `i` at `d n + i`), so
+    // each `H'(φ_j)` multiplies all of them in one pass.
+    let mut reduced = vec![0.0; dim * n];
+    let mut v = vec![0.0; dim];
+    for (i, u) in modes.iter().enumerate() {
+        dofs.gather(u, &mut v);
+        v.iter().enumerate().for_each(|(d, x)| reduced[d * n + i] = *x);
+    }
     // rhs_ij = −½ (H'(φ_j) φ_i + H'(φ_i) φ_j): each H'(φ_j) once, times every mode.
     let count = n * (n + 1) / 2;
     let index = |i: usize, j: usize| {
@@ -243,7 +243,7 @@ pub fn derivatives_of(
         a * n - a * (a + 1) / 2 + b
     };
     let mut rhs = vec![0.0; count * dim];
-    let mut product = vec![0.0; dim];
+    let mut product = vec![0.0; dim * n];
     for (j, phi) in modes.iter().enumerate() {
         let largest = phi.iter().map(|p| p.length()).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
         let e = HESSIAN_STEP / largest;
@@ -253,12 +253,13 @@ pub fn derivatives_of(
             || shell.assemble_hessian(&mut minus, &shifted(-e), HessianMode::Exact),
         );
         let dh: Vec<f64> = asm.values().iter().zip(minus.values()).map(|(a, b)| (a - b) / (2.0 * e)).collect();
-        for (i, v) in reduced.iter().enumerate() {
-            asm.multiply(Some(&dh), v, &mut product);
+        asm.multiply(Some(&dh), &reduced, n, &mut product);
+        for i in 0..n {
             let k = index(i, j);
             // A diagonal pair gets H'(φ_i)φ_i twice over: −½(2 H'φφ).
             let weight = if i == j { -1.0 } else { -0.5 };
-            rhs[k * dim..(k + 1) * dim].iter_mut().zip(&product).for_each(|(r, p)| *r += weight * p);
+            let column = product.iter().skip(i).step_by(n);
+            rhs[k * dim..(k + 1) * dim].iter_mut().zip(column).for_each(|(r, p)| *r += weight * p);
         }
         progress(0.4 * (j + 1) as f32 / n as f32);
     }

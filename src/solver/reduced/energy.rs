@@ -186,7 +186,7 @@ impl ReducedShell {
         // `Jᵀ` column-major is `J` with its rows interleaved, and `(HJ)ᵀ = JᵀH` comes out likewise.
         let jt = j.transpose();
         let mut jth = DMatrix::zeros(j.ncols(), j.nrows());
-        self.hessian.multiply_interleaved(jt.as_slice(), j.ncols(), jth.as_mut_slice());
+        self.hessian.multiply(None, jt.as_slice(), j.ncols(), jth.as_mut_slice());
         let p = jth * j;
         (&p + p.transpose()) * 0.5
     }

@@ -14,8 +14,8 @@ use crate::scene::Key;
 
 /// How the family is set up, for the summary.
 pub const SETUP: &str = "the creature's vertex 100 dragged down and sideways (direction (0.26, −0.46, 0.01)) by \
-    0.05–0.53 m, reached by a jump or over a ramp, then held 2 s; `lma`, `mwts`, `mwts-rs` at 8 modes, judged by \
-    their area change.";
+    0.05–0.53 m, reached by a jump or over a ramp of 0.1 s (up to 5.3 m/s) or 1 s, then held 2 s; `lma`, `mwts`, \
+    `mwts-rs`, `rds` at 8 modes, judged by their area change.";
 
 const VERTEX: usize = 100;
 const DIRECTION: [f64; 3] = [0.2585, -0.4637, 0.0082];
@@ -23,8 +23,8 @@ const MODES: usize = 8;
 const HOLD: f64 = 2.0;
 const DISTANCES: [f64; 4] = [0.05, 0.1, 0.25, 0.53];
 const QUICK_DISTANCES: [f64; 2] = [0.05, 0.53];
-const RAMPS: [f64; 2] = [0.0, 1.0];
-const METHODS: [&str; 3] = ["lma", "mwts", "mwts-rs"];
+const RAMPS: [f64; 3] = [0.0, 0.1, 1.0];
+const METHODS: [&str; 4] = ["lma", "mwts", "mwts-rs", "rds"];
 
 /// One row per method and ramp (quick: `mwts` with a jump).
 pub fn rows(quick: bool) -> Vec<Row> {

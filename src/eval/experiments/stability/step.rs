@@ -46,7 +46,7 @@ pub const XPBD_SUBSTEPS: usize = 10;
 /// See [`XPBD_SUBSTEPS`].
 pub const XPBD_SWEEPS: usize = 2;
 
-const SHELLS: [&str; 5] = ["lma", "mwts", "mwts-rs", "ds-implicit", "ds"];
+const SHELLS: [&str; 6] = ["lma", "mwts", "mwts-rs", "rds", "ds-implicit", "ds"];
 const CLOTHS: [&str; 4] = ["cloth", "cloth-quad", "pbd", "xpbd"];
 
 /// The explicit method's substep grid: `10^(−6 + k/per_decade)` up to 3.2e-4 s.
