@@ -16,8 +16,8 @@
 //! no force, so the cheapest combination meeting every part's target is the cheapest model per part.
 //!
 //! - **Shells** (`rigid`, the modal methods with 1–64 modes, `rds` with 1–16 modes and its default
-//!   derivative directions where the shell is anchored, `ds-implicit`): the candidate's static equilibrium (run to rest under
-//!   critical damping of the lowest mode) is judged by
+//!   derivative directions where the shell is anchored, `ds-implicit`): the candidate's static
+//!   equilibrium (run to rest under critical damping of the lowest mode) is judged by
 //!   [`super::quality::estimate`]: a few Newton iterations of the full discrete-shell equations,
 //!   the distance they travel relative to the displacement they arrive at. `rigid` has error 1 (no
 //!   displacement) and `ds-implicit` 0 (it solves the full equations, whose equilibrium does not
@@ -37,7 +37,7 @@ use glam::DVec3;
 
 use super::run::{Stop, distance, run_driven};
 use super::script::Script;
-use super::{DragSet, Solver, SolverError, quality, registry};
+use super::{DragSet, Solver, SolverError, quality, reduced, registry};
 use crate::scene::Setup;
 
 /// Mode counts tried by the modal methods.
@@ -203,9 +203,9 @@ pub fn choose(setup: &Setup, accuracy: f64) -> Result<Choice, SolverError> {
 /// The cheapest shell model that meets `accuracy` under the drags as they stand (their targets
 /// held still), among a few steps up from `method` with `modes` modes: the same method with 2× and
 /// 4× the modes, `mwts-rs` with 1×, 2× and 4× the modes (each up to 64), on an anchored shell `rds`
-/// with 1× (from `rds`: 2× and 4×; up to 16), and `ds-implicit`. The remedy the viewer's readout names when a
-/// model is not enough. The scene's tracks are replaced by `drags`. The fraction of candidates
-/// judged goes to `progress` (where the search is stopped, [`super::supersede`]).
+/// with 1× (from `rds`: 2× and 4×; up to 16), and `ds-implicit`. The remedy the viewer's readout
+/// names when a model is not enough. The scene's tracks are replaced by `drags`. The fraction of
+/// candidates judged goes to `progress` (where the search is stopped, [`super::supersede`]).
 pub fn remedy(
     setup: &Setup,
     accuracy: f64,
@@ -239,8 +239,8 @@ fn remedy_candidates(setup: &Setup, method: &str, modes: usize) -> Vec<Candidate
         [2, 4].into_iter().for_each(|k| add(m.name, k * modes));
     }
     [1, 2, 4].into_iter().for_each(|k| add("mwts-rs", k * modes));
-    // `rds` needs anchors (its derivatives solve with the rest stiffness); from `rds`, 1× is itself.
-    if !setup.anchors.is_empty() && method != "rds" {
+    // From `rds`, 1× is itself.
+    if reduced::suits(setup) && method != "rds" {
         add("rds", modes);
     }
     candidates.push(Candidate::new("ds-implicit", None));
@@ -317,8 +317,7 @@ fn shell_candidates(setup: &Setup) -> Vec<Candidate> {
     for method in ["lma", "mwts", "mwts-rs"].into_iter().filter(|m| registry::find(m).is_ok()) {
         v.extend(MODES.iter().filter(|&&m| m < free).map(|&m| Candidate::new(method, Some(m))));
     }
-    // `rds`'s modal derivatives solve with the rest stiffness, singular for a shell held by nothing.
-    if !setup.anchors.is_empty() {
+    if reduced::suits(setup) {
         v.extend(RDS_MODES.iter().filter(|&&m| m < free).map(|&m| Candidate::new("rds", Some(m))));
     }
     v.push(Candidate::new("ds-implicit", None));

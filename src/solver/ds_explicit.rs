@@ -19,7 +19,7 @@ use super::params::shared::GRAVITY_Y;
 use super::params::{self, Param, Redo};
 use super::stability::{StabilityLimit, stability_limit};
 use super::{DragSet, ParamSpec, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
-use super::{Footprint, Method};
+use super::{ENERGY_LIMIT, Footprint, Method};
 use crate::scene::Setup;
 
 /// Registry entry.
@@ -145,7 +145,7 @@ impl Solver for DsExplicit {
         let alpha = self.model.alpha;
         let mut g = vec![DVec3::ZERO; self.x.len()];
         let (mut vr, mut cv) = (vec![0.0; n], vec![0.0; n]);
-        let limit = 1e6 * self.model.energy_scale();
+        let limit = ENERGY_LIMIT * self.model.energy_scale();
         let mut residual = 0.0;
         for s in 0..substeps {
             super::supersede::checkpoint();

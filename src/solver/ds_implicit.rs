@@ -9,7 +9,7 @@ use glam::DVec3;
 use super::newton::{Inertia, NEWTON_PARAMS, NewtonSettings, STEP};
 use super::params::{self, Param, Redo};
 use super::{DragSet, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
-use super::{Footprint, Method};
+use super::{ENERGY_LIMIT, Footprint, Method};
 use crate::scene::Setup;
 
 /// Registry entry.
@@ -77,7 +77,7 @@ impl Solver for DsImplicit {
         self.steps += 1;
         self.time += self.h;
         let energy = self.model.potential(&self.x) + self.model.kinetic(&self.v);
-        check_finite(self.steps, self.time, &self.x, energy, 1e6 * self.model.energy_scale())?;
+        check_finite(self.steps, self.time, &self.x, energy, ENERGY_LIMIT * self.model.energy_scale())?;
         Ok(StepStats::solved(start, self.time, energy, &report))
     }
 

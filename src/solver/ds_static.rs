@@ -27,7 +27,7 @@ use glam::DVec3;
 use super::newton::{NEWTON_PARAMS, NewtonReport, NewtonSettings};
 use super::params;
 use super::{DragSet, ParamValue, ShellModel, Solver, SolverError, StepStats, check_finite};
-use super::{Footprint, Method};
+use super::{ENERGY_LIMIT, Footprint, Method};
 use crate::scene::Setup;
 
 /// Registry entry.
@@ -186,7 +186,7 @@ impl Solver for DsStatic {
         })?;
         self.steps += 1;
         let energy = self.model.potential(&self.x);
-        check_finite(self.steps, time, &self.x, energy, 1e6 * self.model.energy_scale())?;
+        check_finite(self.steps, time, &self.x, energy, ENERGY_LIMIT * self.model.energy_scale())?;
         Ok(StepStats::solved(start, time, energy, &report))
     }
 

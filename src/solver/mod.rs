@@ -61,7 +61,7 @@ pub use newton::{Inertia, NewtonReport, NewtonSettings};
 pub use params::{ParamSpec, ParamValue};
 pub use registry::METHODS;
 pub use shell_model::ShellModel;
-pub use stats::{StepStats, check_finite};
+pub use stats::{ENERGY_LIMIT, StepStats, check_finite, energy_scale};
 
 use glam::DVec3;
 

@@ -154,11 +154,9 @@ impl ShellModel {
         self.dofs.free_count() < self.dofs.vertex_count()
     }
 
-    /// A characteristic energy scale `max(1, Σ|f_ext| · L)` (L the bounding-box diagonal), J.
+    /// A characteristic energy scale, [`super::stats::energy_scale`] of the external forces, J.
     pub fn energy_scale(&self) -> f64 {
-        let (lo, hi) = self.mesh.bounding_box();
-        let l = (hi - lo).length();
-        (self.f_ext.iter().map(|f| f.length()).sum::<f64>() * l).max(1.0)
+        super::stats::energy_scale(&self.f_ext, self.mesh.bounding_box())
     }
 
     /// Potential energy `W(x) − Σ f_ext·(x − X)` (elastic plus load potential, zero at rest), J.

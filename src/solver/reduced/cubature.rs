@@ -8,8 +8,9 @@
 //! divided by `|f(c_p)|`, so small and large poses count alike. The rest stiffness
 //! `K₀ = Σ_e J_eᵀ ∇²E_e J_e` is a target too, column by column (each divided by its norm): a
 //! cubature that gets the forces of finite poses right can still leave a stiff direction nearly
-//! free at rest, and the equilibrium then slides along it (BENCHMARKS.md, *the cubature*). The fit is `min |A w − b|²`,
-//! `w ≥ 0`, grown greedily: the candidates whose columns point most along the residual join `S`
+//! free at rest, and the equilibrium then slides along it (BENCHMARKS.md, *the cubature*). The fit
+//! is `min |A w − b|²`, `w ≥ 0`, grown greedily: the candidates whose columns point most along the
+//! residual join `S`
 //! (a batch of an eighth of `|S|` at a time), the weights are re-solved by non-negative least
 //! squares ([`crate::linalg::nnls`], warm), until the relative residual is below
 //! [`TOLERANCE`] or `S` has the requested size. Candidates are every element up to [`POOL`], else a

@@ -26,3 +26,11 @@ pub mod springs;
 pub mod stored;
 
 pub use method::{RDS, Rds};
+
+use crate::scene::Setup;
+
+/// Whether `rds` can model `setup`'s shell: it needs anchors, for its modal derivatives solve with
+/// the rest stiffness, singular for a shell held by nothing.
+pub fn suits(setup: &Setup) -> bool {
+    !setup.anchors.is_empty()
+}
