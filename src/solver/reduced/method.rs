@@ -168,16 +168,18 @@ struct Built {
     shell: ReducedShell,
     /// The rest reduced stiffness `K₀ = Jᵀ K J` at `c = 0`.
     rest: DMatrix<f64>,
-    /// The factored stiffness the basis was built with, if it was built here (not read from the
-    /// cache): handed to the solver's [`DragFactor`] for the drags' static responses.
-    response: Option<StaticResponse>,
 }
+
+/// A basis built for the solver, with the factored stiffness it was built with if it was built
+/// here (not read from the cache): handed to the solver's [`DragFactor`] for the drags' static
+/// responses.
+type Rebuilt = (Built, Option<StaticResponse>);
 
 impl Built {
     /// The basis (read from the cache, else built from the modes, themselves cached or computed),
     /// the reduced shell, its cubature of at most `sizes.cubature` elements (none for 0; cached
-    /// likewise). Built afresh, it keeps the factor it was built with for the drags.
-    fn of(request: &Request, sizes: Sizes, progress: &dyn Fn(f32)) -> Result<Self, SolverError> {
+    /// likewise). Built afresh, it comes with the factor it was built with, for the drags.
+    fn of(request: &Request, sizes: Sizes, progress: &dyn Fn(f32)) -> Result<Rebuilt, SolverError> {
         let masses = request.masses();
         let problem = request.problem(&masses);
         let cache = &request.cache;
@@ -205,10 +207,9 @@ impl Built {
             };
             shell.set_cubature(Some(fitted));
         }
-        let mut built = Self::around(request, base.clone(), base, shell);
-        built.response = factor.map(StaticResponse::of);
+        let built = Self::around(request, base.clone(), base, shell);
         progress(1.0);
-        Ok(built)
+        Ok((built, factor.map(StaticResponse::of)))
     }
 
     /// The reduced shell of `basis` (`base` with any drag responses), its energy summed by
@@ -229,7 +230,7 @@ impl Built {
         let zero = vec![0.0; basis.len()];
         let j = shell.jacobian(&zero);
         let rest = shell.projected_hessian(request.mesh.positions(), &j);
-        Self { base, basis, shell, rest, response: None }
+        Self { base, basis, shell, rest }
     }
 }
 
@@ -248,7 +249,7 @@ pub struct Rds {
     previous: Vec<DVec3>,
     drags: DragSet,
     steps: u64,
-    pending: Option<Background<Built>>,
+    pending: Option<Background<Rebuilt>>,
     /// The drags' factor of `K − σM`: the one the basis was built with, else made at the first drag
     /// or ahead in the background once drags are expected.
     factor: DragFactor,
@@ -285,7 +286,7 @@ impl Rds {
             derivatives: s.derivatives.map_or_else(|| default_derivatives(s.modes), |d| d.max(0) as usize),
             cubature: s.cubature.map_or(0, |c| c.max(0) as usize),
         };
-        let built = Built::of(&request, sizes, &|_| {}).map_err(|e| named(e, RDS.name))?;
+        let (built, response) = Built::of(&request, sizes, &|_| {}).map_err(|e| named(e, RDS.name))?;
         let r = built.basis.len();
         let mut rds = Self {
             request,
@@ -313,7 +314,6 @@ impl Rds {
             groups: Vec::new(),
             drag_revision: None,
         };
-        let response = rds.built.response.take();
         rds.factor.renew(response, rds.request.drag_factor());
         Ok(rds)
     }
@@ -493,11 +493,10 @@ impl Rds {
 
     /// Swap in a basis rebuilt in the background; the drags' responses are refitted to it at the
     /// next step.
-    fn swap(&mut self, result: Result<Built, SolverError>) -> Result<(), SolverError> {
+    fn swap(&mut self, result: Result<Rebuilt, SolverError>) -> Result<(), SolverError> {
         self.pending = None;
-        let mut built = result.map_err(|e| named(e, RDS.name))?;
+        let (built, response) = result.map_err(|e| named(e, RDS.name))?;
         (self.groups, self.drag_revision) = (Vec::new(), None);
-        let response = built.response.take();
         self.carry(built);
         self.factor.renew(response, self.request.drag_factor());
         Ok(())

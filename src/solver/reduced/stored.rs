@@ -136,6 +136,11 @@ mod tests {
         }
         std::fs::write(&path, &good[..good.len() - 9]).unwrap();
         assert!(load_basis(&cache, &p, sizes).is_none(), "truncated");
+        // A whole file under the right key that describes another basis is refused too.
+        store_basis(&cache, &p, sizes, &ReducedBasis { modes: 2, ..built.clone() });
+        assert!(load_basis(&cache, &p, sizes).is_none(), "a basis of another mode count");
+        store_basis(&cache, &p, sizes, &ReducedBasis { loads: 4, ..built.clone() });
+        assert!(load_basis(&cache, &p, sizes).is_none(), "load responses along more than three axes");
 
         let cubature = Cubature { elements: vec![(5, 0.5), (17, 2.25)], training_error: 1e-3 };
         store_cubature(&cache, &p, sizes, &cubature);
