@@ -2,7 +2,8 @@
 //! 600 frames no two triangles of the cloth intersect — no vertex through a triangle, no edge through
 //! another — by the exact intersection test of `shellwarp::mesh::self_intersections` (Shewchuk's
 //! adaptive `orient3d`, not the solver's own query). The negative control, the same run with self-collision off, does intersect. A
-//! strip too fine for its substeps goes through the ground, and that is reported.
+//! strip too fine for its substeps goes through the ground, and that is reported; a strip flung apart
+//! is reported before its search.
 
 use shellwarp::mesh::self_intersections as intersections;
 use shellwarp::scene;
@@ -146,4 +147,34 @@ fn a_fine_strip_with_too_few_substeps_is_reported_going_through_the_ground() {
         other => panic!("4 substeps: expected the strip reported through the ground, got {other:?}"),
     }
     assert!(run(16).is_none(), "16 substeps hold the impact");
+}
+
+/// A strip flung apart (a corner dragged a kilometre away in one jump: each substep the stretch
+/// constraints drag its neighbours after it, farther than the strip is long) is reported as a
+/// divergence by the self-collision search, before it searches: every vertex's margin grows with
+/// its motion, and a search of a cloth flying apart would pair every vertex with every triangle.
+/// The step after *Reset* is searched again from scratch and the strip falls whole. (`pbd`'s
+/// corrections are fractions, so its strip spreads slower; its frame's energy test reports it
+/// first: 5.9e8 J against 2.4e7 J.)
+#[test]
+fn a_cloth_flung_apart_is_reported_before_its_self_collision_search_and_reset_recovers() {
+    use glam::DVec3;
+    use shellwarp::solver::{Drag, DragKind, SolverError};
+    let setup = scene::load("pile", &["solver.method=xpbd".into()]).unwrap();
+    let mut s = solver::build(&setup).unwrap();
+    let far = DVec3::new(1000.0, 0.0, 0.0);
+    s.drags_mut().add(Drag { vertex: 0, kind: DragKind::Position(far) }).unwrap();
+    match (0..5).find_map(|_| s.step().err()) {
+        Some(SolverError::Diverged { reason, .. }) => {
+            eprintln!("{reason}");
+            assert!(reason.contains("farther than the cloth's size"), "{reason}");
+        }
+        other => panic!("expected the strip reported flung apart, got {other:?}"),
+    }
+    s.drags_mut().clear();
+    s.reset();
+    for frame in 0..30 {
+        s.step().unwrap_or_else(|e| panic!("after the reset, frame {frame}: {e}"));
+        assert_eq!(intersections(s.positions(), setup.mesh.triangles()), 0, "frame {frame}");
+    }
 }

@@ -60,8 +60,8 @@ pub use error::SolverError;
 pub use newton::{Inertia, NewtonReport, NewtonSettings};
 pub use params::{ParamSpec, ParamValue};
 pub use registry::METHODS;
-pub use shell_model::ShellModel;
-pub use stats::{ENERGY_LIMIT, StepStats, check_finite, energy_scale};
+pub use shell_model::{ENERGY_LIMIT, ShellModel, energy_scale};
+pub use stats::{StepStats, check_finite};
 
 use glam::DVec3;
 

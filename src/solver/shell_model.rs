@@ -20,6 +20,15 @@ use crate::linalg::{BlockAssembler, DofMap, SparseCholesky};
 use crate::mesh::TriMesh;
 use crate::scene::Setup;
 
+/// How far above [`energy_scale`] a shell's energy may rise before a step counts as diverged.
+pub const ENERGY_LIMIT: f64 = 1e6;
+
+/// A shell's characteristic energy `max(1, Σ|f| · L)` under the external forces `forces`, with `L`
+/// the diagonal of the bounding box `(lo, hi)`, J: the work the loads do across the whole body.
+pub fn energy_scale(forces: &[DVec3], (lo, hi): (DVec3, DVec3)) -> f64 {
+    (forces.iter().map(|f| f.length()).sum::<f64>() * (hi - lo).length()).max(1.0)
+}
+
 /// The parameters every DS method has, in this order: the shell's stiffnesses, density, gravity and
 /// damping (the wind's follow them).
 const SHELL_PARAMS: &[Param<ShellModel>] = &[
@@ -154,9 +163,10 @@ impl ShellModel {
         self.dofs.free_count() < self.dofs.vertex_count()
     }
 
-    /// A characteristic energy scale, [`super::stats::energy_scale`] of the external forces, J.
+    /// A characteristic energy scale, [`energy_scale`] of the scene's forces (gravity and point
+    /// loads; not the wind, which grows with the motion it would measure), J.
     pub fn energy_scale(&self) -> f64 {
-        super::stats::energy_scale(&self.f_ext, self.mesh.bounding_box())
+        energy_scale(&self.scene_forces(), self.mesh.bounding_box())
     }
 
     /// Potential energy `W(x) − Σ f_ext·(x − X)` (elastic plus load potential, zero at rest), J.

@@ -72,15 +72,6 @@ impl Default for StepStats {
     }
 }
 
-/// How far above [`energy_scale`] a shell's energy may rise before a step counts as diverged.
-pub const ENERGY_LIMIT: f64 = 1e6;
-
-/// A shell's characteristic energy `max(1, Σ|f| · L)` under the external forces `forces`, with `L`
-/// the diagonal of the bounding box `(lo, hi)`, J: the work the loads do across the whole body.
-pub fn energy_scale(forces: &[DVec3], (lo, hi): (DVec3, DVec3)) -> f64 {
-    (forces.iter().map(|f| f.length()).sum::<f64>() * (hi - lo).length()).max(1.0)
-}
-
 /// Report divergence if any position or the energy is non-finite, or the energy exceeds `energy_limit`.
 pub fn check_finite(
     step: u64,

@@ -26,7 +26,7 @@ use crate::solver::params::{self, Param, Redo};
 use crate::solver::supersede::{Background, Generation};
 use crate::solver::wind::Wind;
 use crate::solver::{DragSet, ParamSpec, ParamValue, Progress, Solver, SolverError, StepStats, check_finite};
-use crate::solver::{Footprint, Method};
+use crate::solver::{ENERGY_LIMIT, Footprint, Method, energy_scale};
 
 /// Registry entry: linear modal analysis.
 pub const LMA: Method = Method {
@@ -396,7 +396,7 @@ impl Solver for ModalSolver {
         self.steps += 1;
         let time = self.steps as f64 * self.params.step;
         let energy = self.dynamics.energy();
-        let limit = 1e12 * (1.0 + self.analysis.basis.eigenvalues.last().copied().unwrap_or(1.0));
+        let limit = ENERGY_LIMIT * energy_scale(&self.scene_forces(), self.request.mesh.bounding_box());
         // The positions are a continuous function of `q` with finite coefficients (any finite `q` gives
         // finite positions short of overflow, which the energy limit catches first), so checking the
         // modal state stands for scanning every vertex.
@@ -421,6 +421,10 @@ impl Solver for ModalSolver {
 
     fn reset(&mut self) {
         self.dynamics.reset();
+        // The forces held from the last step (the wind on a shell that may have diverged; for
+        // `mwts-rs` also its load moments and load stiffness) give way to the scene's.
+        self.blown = false;
+        self.update_forces();
         self.previous.copy_from_slice(self.dynamics.positions());
         self.steps = 0;
     }

@@ -53,13 +53,19 @@ use self::contact::{SampleHit, Touch};
 use self::model::Model;
 use self::params::Settings;
 use self::project::{Compliance, Multipliers, Stiffness};
-use self::self_collision::SelfCollision;
+use self::self_collision::{Flung, SelfCollision};
 use crate::collision::Shape;
 use crate::energy::constraints;
 use crate::scene::Setup;
 use crate::solver::wind::Wind;
 use crate::solver::{DragKind, DragSet, ParamValue, Solver, SolverError, StepStats, check_finite};
 use crate::solver::{Footprint, Method};
+
+/// A self-collision search over `model`'s cloth at rest, with nothing found yet.
+fn fresh_self_collision(model: &Model) -> SelfCollision {
+    let edges = model.edges.iter().map(|e| e.v).collect();
+    SelfCollision::new(&model.rest, &model.triangles, edges, model.mean_edge)
+}
 
 /// Refuse a cloth that starts deep inside a collider that stands still (deeper than a tenth
 /// of its size): its projection out would launch it at metres per step, crumple it onto itself and
@@ -182,10 +188,7 @@ impl Pbd {
             forces: vec![DVec3::ZERO; n],
             initial_bodies: bodies.clone(),
             bodies,
-            self_collision: s.self_collision.then(|| {
-                let edges = model.edges.iter().map(|e| e.v).collect();
-                SelfCollision::new(&model.rest, &model.triangles, edges, model.mean_edge)
-            }),
+            self_collision: s.self_collision.then(|| fresh_self_collision(&model)),
             wind: Wind::of(setup)?,
             drags: DragSet::new(n, false),
             settings,
@@ -254,8 +257,8 @@ impl Pbd {
         Ok(())
     }
 
-    /// One substep of `h` ending at time `t`.
-    fn substep(&mut self, h: f64, t: f64) {
+    /// One substep of `h` ending at time `t`; refused when the cloth is flying apart ([`Flung`]).
+    fn substep(&mut self, h: f64, t: f64) -> Result<(), Flung> {
         // External forces, prediction.
         let forces = if self.wind.is_calm() {
             &self.weights
@@ -284,7 +287,7 @@ impl Pbd {
             self.areas.under(self.start_rows.indexed(), 2.0 * self.settings.least_area, &mut self.shrunk);
         }
         self.rows.fill(&self.p, &self.w);
-        self.detect(h);
+        self.detect(h)?;
         let (alpha_stretch, alpha_bend) = self.settings.compliances();
         let sweeps = self.settings.sweeps as f64;
         let correction = |k: f64| 1.0 - (1.0 - k).powf(1.0 / sweeps);
@@ -356,12 +359,13 @@ impl Pbd {
             b.finish(h);
             b.damp(keep);
         }
+        Ok(())
     }
 
     /// Find this substep's contacts: particles near bodies, small bodies near triangles, and the
     /// self-collision pairs (whose test of the flat patches reads the predicted positions from the
-    /// sweep's rows, so they are filled first).
-    fn detect(&mut self, h: f64) {
+    /// sweep's rows, so they are filled first). Refused when the cloth is flying apart ([`Flung`]).
+    fn detect(&mut self, h: f64) -> Result<(), Flung> {
         self.touches.clear();
         self.samples.clear();
         self.near.clear();
@@ -404,8 +408,9 @@ impl Pbd {
         }
         if let Some(sc) = &mut self.self_collision {
             let rows = [self.start_rows.indexed(), self.rows.indexed()];
-            sc.find([&self.x, &self.p], rows, &self.model.triangles, self.settings.thickness);
+            sc.find([&self.x, &self.p], rows, &self.model.triangles, self.settings.thickness)?;
         }
+        Ok(())
     }
 
     /// One sweep over the contacts and self-collision pairs (of a substep of `h`).
@@ -495,7 +500,13 @@ impl Solver for Pbd {
         let h = self.settings.step / self.settings.substeps as f64;
         for k in 1..=self.settings.substeps {
             crate::solver::supersede::checkpoint();
-            self.substep(h, self.time + h * k as f64);
+            let t = self.time + h * k as f64;
+            self.substep(h, t).map_err(|Flung { vertices }| {
+                let reason = format!(
+                    "{vertices} particles moved farther than the cloth's size, or to a non-finite place, in one substep"
+                );
+                SolverError::Diverged { step: self.steps + 1, time: t, reason }
+            })?;
         }
         self.time += self.settings.step;
         self.steps += 1;
@@ -519,6 +530,11 @@ impl Solver for Pbd {
     fn reset(&mut self) {
         self.x.clone_from(&self.model.rest);
         self.v.fill(DVec3::ZERO);
+        // The search's anchors and pairs belong to the last state (non-finite after a divergence,
+        // which would keep the cloth from ever being searched again).
+        if self.self_collision.is_some() {
+            self.self_collision = Some(fresh_self_collision(&self.model));
+        }
         self.bodies.clone_from(&self.initial_bodies);
         self.time = 0.0;
         self.steps = 0;

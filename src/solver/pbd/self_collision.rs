@@ -101,6 +101,20 @@ const TOO_SOON: u32 = 4;
 /// substep's travel.
 const FEW_PAIRS: f64 = 0.02;
 
+/// A search refuses a substep in which more than this share of the vertices (and more than
+/// [`FLUNG_FEW`]: a few dragged vertices may jump) move farther than the cloth's size.
+pub const FLUNG_SHARE: f64 = 0.01;
+
+/// See [`FLUNG_SHARE`].
+pub const FLUNG_FEW: usize = 8;
+
+/// A substep the search refused ([`SelfCollision::find`]): the cloth is flying apart.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Flung {
+    /// How many vertices moved farther than the cloth's size, or to a non-finite place.
+    pub vertices: usize,
+}
+
 /// The self-collision pairs of the cloth.
 #[derive(Debug, Clone)]
 pub struct SelfCollision {
@@ -115,6 +129,9 @@ pub struct SelfCollision {
     /// Each vertex's margin at the last search, and the least margin, m.
     margins: Vec<f64>,
     least_margin: f64,
+    /// The cloth's size at rest (its bounding box's diagonal), m: a vertex that moves farther
+    /// within a substep is flung, not simulated.
+    size: f64,
     /// Each vertex's position when it was last searched or renewed, less the cloth's mean position
     /// then (so a shared translation does not count as drift).
     anchors: Vec<DVec3>,
@@ -166,6 +183,10 @@ impl SelfCollision {
             edge_owner,
             margins: Vec::new(),
             least_margin: 0.2 * mean_edge,
+            size: {
+                let (lo, hi) = rest.iter().fold((DVec3::MAX, DVec3::MIN), |(l, h), x| (l.min(*x), h.max(*x)));
+                (hi - lo).length()
+            },
             anchors: Vec::new(),
             whole: false,
             watched: Watch::new(triangles.iter().map(|t| (t.map(|i| i as u32), DVec3::ZERO))),
@@ -184,14 +205,17 @@ impl SelfCollision {
     }
 
     /// This substep's pairs and sides, for the substep from `x` (start) to `p` (predicted), which
-    /// `rows` hold as the sweeps read them ([`Rows`]).
+    /// `rows` hold as the sweeps read them ([`Rows`]). Refused ([`Flung`]) when more than
+    /// [`FLUNG_SHARE`] of the vertices (and more than [`FLUNG_FEW`]) would move, relative to the
+    /// cloth's mean, farther than the cloth's size or to a non-finite place: the margins grow with
+    /// the motion, and a search of an exploding cloth would pair every vertex with every triangle.
     pub fn find(
         &mut self,
         [x, p]: [&[DVec3]; 2],
         rows: [Indexed<&[Row]>; 2],
         triangles: &[[usize; 3]],
         thickness: f64,
-    ) {
+    ) -> Result<(), Flung> {
         // When the last search skipped the whole cloth as one flat patch, nothing can have come
         // within reach while it stays flat, however far its vertices moved.
         let searched = self.anchors.len() == x.len();
@@ -208,6 +232,11 @@ impl SelfCollision {
             let (least, room, t) = (self.least_margin, 2.0 * self.stretch, cp - cx);
             self.margins.clear();
             self.margins.extend(p.iter().zip(x).map(|(a, b)| least + room * (*a - *b - t).length()));
+            let bound = least + room * self.size;
+            let flung = self.margins.iter().filter(|&&m| m.is_nan() || m > bound).count();
+            if flung > FLUNG_FEW + (FLUNG_SHARE * x.len() as f64) as usize {
+                return Err(Flung { vertices: flung });
+            }
             self.search(x, cx, triangles, thickness);
             // Searches that come soon and list few pairs: more room for the next; many pairs: less.
             let listed = (self.pairs.len() + self.edge_pairs.len()) as f64;
@@ -273,6 +302,7 @@ impl SelfCollision {
                 self.active_edges.push(k as u32);
             }
         }
+        Ok(())
     }
 
     /// List, at `x`, every pair closer than the thickness plus half the sum of its two sides' margins
@@ -468,7 +498,7 @@ mod tests {
         let mut rows = [Rows::default(), Rows::default()];
         rows[0].fill(x, &vec![1.0; x.len()]);
         rows[1].fill(p, &vec![1.0; p.len()]);
-        sc.find([x, p], [rows[0].indexed(), rows[1].indexed()], triangles, thickness);
+        sc.find([x, p], [rows[0].indexed(), rows[1].indexed()], triangles, thickness).expect("not flung apart");
     }
 
     /// A sheet that is one flat patch is searched once while it stays flat, however far it moves,

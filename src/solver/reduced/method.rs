@@ -337,11 +337,16 @@ impl Rds {
         Some(cubature::relative_errors(&mut built.shell, &built.basis, rest, &fitted, count, UNSEEN_SEED))
     }
 
+    /// Gravity on the lumped masses plus the point loads, N.
+    fn scene_forces(&self) -> Vec<DVec3> {
+        let masses = self.request.masses();
+        masses.iter().zip(&self.loads).map(|(m, l)| self.gravity * *m + *l).collect()
+    }
+
     /// The external forces of the coming step: gravity, point loads and the wind on the shell as the
     /// last step left it, N.
     fn forces(&self) -> Vec<DVec3> {
-        let masses = self.request.masses();
-        let base: Vec<DVec3> = masses.iter().zip(&self.loads).map(|(m, l)| self.gravity * *m + *l).collect();
+        let base = self.scene_forces();
         if self.wind.is_calm() {
             return base;
         }
@@ -622,7 +627,7 @@ impl Solver for Rds {
         }
         let kinetic = 0.5 * self.v.iter().map(|v| v * v).sum::<f64>();
         let energy = self.built.shell.energy(&self.positions) + kinetic;
-        let limit = ENERGY_LIMIT * energy_scale(&step.forces, self.request.mesh.bounding_box());
+        let limit = ENERGY_LIMIT * energy_scale(&self.scene_forces(), self.request.mesh.bounding_box());
         check_finite(self.steps, time, &[], energy, limit)?;
         Ok(StepStats {
             wall_seconds: wall.elapsed().as_secs_f64(),
