@@ -28,8 +28,15 @@ pub(crate) const STEP: ParamSpec =
 /// The Newton iteration cap's spec, shared by every method that iterates Newton's method in a step.
 pub(crate) const ITERATIONS_SPEC: ParamSpec = ParamSpec {
     integer: true,
-    ..ParamSpec::linear("iterations", "Newton iterations", "", "Cap on Newton iterations per step.", 1.0, 1000.0)
-        .in_scene("solver.iterations")
+    ..ParamSpec::linear(
+        "iterations",
+        "Newton iterations",
+        "",
+        "Cap on Newton iterations per solve (`rds` solves a step again, once, if it stops short).",
+        1.0,
+        1000.0,
+    )
+    .in_scene("solver.iterations")
 };
 
 /// The Newton iteration cap.

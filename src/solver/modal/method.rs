@@ -421,10 +421,6 @@ impl Solver for ModalSolver {
 
     fn reset(&mut self) {
         self.dynamics.reset();
-        // The forces held from the last step (the wind on a shell that may have diverged; for
-        // `mwts-rs` also its load moments and load stiffness) give way to the scene's.
-        self.blown = false;
-        self.update_forces();
         self.previous.copy_from_slice(self.dynamics.positions());
         self.steps = 0;
     }

@@ -503,7 +503,8 @@ impl Solver for Pbd {
             let t = self.time + h * k as f64;
             self.substep(h, t).map_err(|Flung { vertices }| {
                 let reason = format!(
-                    "{vertices} particles moved farther than the cloth's size, or to a non-finite place, in one substep"
+                    "{vertices} particles moved farther than ten times the cloth's size, or to a non-finite place, \
+                     in one substep"
                 );
                 SolverError::Diverged { step: self.steps + 1, time: t, reason }
             })?;

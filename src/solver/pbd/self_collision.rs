@@ -101,8 +101,13 @@ const TOO_SOON: u32 = 4;
 /// substep's travel.
 const FEW_PAIRS: f64 = 0.02;
 
-/// A search refuses a substep in which more than this share of the vertices (and more than
-/// [`FLUNG_FEW`]: a few dragged vertices may jump) move farther than the cloth's size.
+/// A vertex that moves, relative to the cloth's mean, farther than this many times the cloth's size
+/// within a substep is flung: no cloth moves so, and a dragged vertex that jumps with the mouse
+/// (and the neighbours it pulls after it) stays well within it.
+pub const FLUNG_REACH: f64 = 10.0;
+
+/// A search refuses a substep in which more than [`FLUNG_FEW`] plus this share of the vertices are
+/// flung ([`FLUNG_REACH`]).
 pub const FLUNG_SHARE: f64 = 0.01;
 
 /// See [`FLUNG_SHARE`].
@@ -111,7 +116,8 @@ pub const FLUNG_FEW: usize = 8;
 /// A substep the search refused ([`SelfCollision::find`]): the cloth is flying apart.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Flung {
-    /// How many vertices moved farther than the cloth's size, or to a non-finite place.
+    /// How many vertices moved farther than [`FLUNG_REACH`] times the cloth's size, or to a
+    /// non-finite place (every vertex when the cloth's mean position is not finite).
     pub vertices: usize,
 }
 
@@ -129,8 +135,7 @@ pub struct SelfCollision {
     /// Each vertex's margin at the last search, and the least margin, m.
     margins: Vec<f64>,
     least_margin: f64,
-    /// The cloth's size at rest (its bounding box's diagonal), m: a vertex that moves farther
-    /// within a substep is flung, not simulated.
+    /// The cloth's size at rest (its bounding box's diagonal), m ([`FLUNG_REACH`]).
     size: f64,
     /// Each vertex's position when it was last searched or renewed, less the cloth's mean position
     /// then (so a shared translation does not count as drift).
@@ -205,10 +210,11 @@ impl SelfCollision {
     }
 
     /// This substep's pairs and sides, for the substep from `x` (start) to `p` (predicted), which
-    /// `rows` hold as the sweeps read them ([`Rows`]). Refused ([`Flung`]) when more than
-    /// [`FLUNG_SHARE`] of the vertices (and more than [`FLUNG_FEW`]) would move, relative to the
-    /// cloth's mean, farther than the cloth's size or to a non-finite place: the margins grow with
-    /// the motion, and a search of an exploding cloth would pair every vertex with every triangle.
+    /// `rows` hold as the sweeps read them ([`Rows`]). Refused ([`Flung`]), with the search's state
+    /// untouched, when more than [`FLUNG_FEW`] plus [`FLUNG_SHARE`] of the vertices would move,
+    /// relative to the cloth's mean, farther than [`FLUNG_REACH`] times the cloth's size or to a
+    /// non-finite place: the margins grow with the motion, and a search of an exploding cloth would
+    /// pair every vertex with every triangle.
     pub fn find(
         &mut self,
         [x, p]: [&[DVec3]; 2],
@@ -226,17 +232,25 @@ impl SelfCollision {
         let means = std::cell::OnceCell::new();
         let means = || *means.get_or_init(|| [mean_position(x), mean_position(p)]);
         let stale = !searched || ((!self.whole || !self.turned.is_empty()) && self.drifted([x, p], means()));
+        if stale {
+            let [cx, cp] = means();
+            let reach = FLUNG_REACH * self.size;
+            let flung = p
+                .iter()
+                .zip(x)
+                .map(|(a, b)| (*a - *b - (cp - cx)).length())
+                .filter(|d| d.is_nan() || *d > reach)
+                .count();
+            if flung > FLUNG_FEW + (FLUNG_SHARE * x.len() as f64) as usize {
+                return Err(Flung { vertices: flung });
+            }
+        }
         self.since += 1;
         if stale {
             let [cx, cp] = means();
             let (least, room, t) = (self.least_margin, 2.0 * self.stretch, cp - cx);
             self.margins.clear();
             self.margins.extend(p.iter().zip(x).map(|(a, b)| least + room * (*a - *b - t).length()));
-            let bound = least + room * self.size;
-            let flung = self.margins.iter().filter(|&&m| m.is_nan() || m > bound).count();
-            if flung > FLUNG_FEW + (FLUNG_SHARE * x.len() as f64) as usize {
-                return Err(Flung { vertices: flung });
-            }
             self.search(x, cx, triangles, thickness);
             // Searches that come soon and list few pairs: more room for the next; many pairs: less.
             let listed = (self.pairs.len() + self.edge_pairs.len()) as f64;

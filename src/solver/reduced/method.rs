@@ -9,15 +9,17 @@
 //! `Π(c) = E(x(c)) − fᵀx(c) + Σ_k ½ κ_k |a_k(c) − t_k|²`: the full shell energy, the external
 //! forces (gravity, point loads, wind held over the step) and the drags. Its stationary point is the
 //! backward Euler step `c⁺ − c − hv + hD(c⁺ − c) = −h² ∇Π(c⁺)`; Newton with a backtracking line
-//! search finds it (a few iterations a step; up to `solver.iterations`), and `v⁺ = (c⁺ − c)/h`.
+//! search finds it (a few iterations a step; up to `solver.iterations`, twice that in a step taken
+//! again, below), and `v⁺ = (c⁺ − c)/h`.
 //!
 //! **Energy bound.** Newton starts from the prediction `c + hv`. Where it stops short of converging
 //! above `Φ(c)`, the step is taken again from `c` itself; the line search only lowers `Φ`, so such a
-//! step ends with `Φ(c⁺) ≤ Φ(c)`, that is `Π(c⁺) + ½|v⁺ − v|² + (h/2)v⁺ᵀDv⁺ ≤ Π(c) + ½|v|²`: the
-//! potential cannot climb above the last step's total energy. (A converged step is a stationary
-//! point of `Φ` and is kept.) Without the retake, a grab that the basis cannot follow fed each
-//! unconverged step's overshoot into the next (the strip's tip pulled 1 m by a jump: area ×100 after 18 steps, where `ds-implicit`
-//! settles at ×1.3). A step whose energy passes [`ENERGY_LIMIT`] times the loads' work across the
+//! step ends with `Φ(c⁺) ≤ Φ(c)`, that is `Π(c⁺) + ½|v⁺ − v|² + (h/2)v⁺ᵀDv⁺ ≤ Π(c) + ½|v|²`
+//! (`Π` under this step's loads and drag targets): the potential cannot climb above the total
+//! energy the shell starts the step with. (A converged step is a stationary point of `Φ` and is
+//! kept.) Without the retake, a grab that the basis cannot follow fed each unconverged step's
+//! overshoot into the next (the strip's middle pulled 1 m by a jump: area ×100 after 18 steps,
+//! where `ds-implicit` settles at ×1.3). A step whose energy passes [`ENERGY_LIMIT`] times the loads' work across the
 //! body is reported as a divergence, as in the full shell's methods.
 //!
 //! **Basis.** The modes, the static responses to body loads (`solver.load_responses`, default 1)
