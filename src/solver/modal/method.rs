@@ -160,6 +160,11 @@ impl Request {
         self.area.iter().map(|a| a * self.density).collect()
     }
 
+    /// Gravity `gravity` on the lumped masses plus the point loads `loads`, N.
+    pub(crate) fn scene_forces(&self, gravity: DVec3, loads: &[DVec3]) -> Vec<DVec3> {
+        self.area.iter().zip(loads).map(|(a, l)| gravity * (a * self.density) + *l).collect()
+    }
+
     /// The modal problem, with `masses` from [`Request::masses`].
     pub(crate) fn problem<'a>(&'a self, masses: &'a [f64]) -> ModalProblem<'a> {
         ModalProblem {
@@ -209,6 +214,9 @@ pub struct ModalSolver {
     /// the shell's velocity).
     wind: Wind,
     blown: bool,
+    /// [`ENERGY_LIMIT`] times the scene's forces' work across the shell, J: past it a step has
+    /// diverged.
+    energy_limit: f64,
     previous: Vec<DVec3>,
     params: ModalParams,
     dynamics: ModalDynamics,
@@ -257,6 +265,7 @@ impl ModalSolver {
             gravity: setup.gravity(),
             wind: Wind::of(setup)?,
             blown: false,
+            energy_limit: f64::INFINITY,
             previous: setup.mesh.positions().to_vec(),
             params,
             analysis,
@@ -279,12 +288,15 @@ impl ModalSolver {
 
     /// Gravity on the lumped masses plus the point loads, N.
     fn scene_forces(&self) -> Vec<DVec3> {
-        let masses = self.request.masses();
-        masses.iter().zip(&self.loads).map(|(m, l)| self.gravity * *m + *l).collect()
+        self.request.scene_forces(self.gravity, &self.loads)
     }
 
+    /// Take the scene's forces, and the divergence limit they set, after a change of gravity, the
+    /// loads or the density.
     fn update_forces(&mut self) {
-        self.dynamics.set_forces(self.scene_forces());
+        let forces = self.scene_forces();
+        self.energy_limit = ENERGY_LIMIT * energy_scale(&forces, self.request.mesh.bounding_box());
+        self.dynamics.set_forces(forces);
     }
 
     /// The wind on the shell as the last step left it (its velocity from the step before), projected
@@ -396,7 +408,6 @@ impl Solver for ModalSolver {
         self.steps += 1;
         let time = self.steps as f64 * self.params.step;
         let energy = self.dynamics.energy();
-        let limit = ENERGY_LIMIT * energy_scale(&self.scene_forces(), self.request.mesh.bounding_box());
         // The positions are a continuous function of `q` with finite coefficients (any finite `q` gives
         // finite positions short of overflow, which the energy limit catches first), so checking the
         // modal state stands for scanning every vertex.
@@ -404,7 +415,7 @@ impl Solver for ModalSolver {
             let reason = "the modal coordinates are not finite".to_string();
             return Err(SolverError::Diverged { step: self.steps, time, reason });
         }
-        check_finite(self.steps, time, &[], energy, limit)?;
+        check_finite(self.steps, time, &[], energy, self.energy_limit)?;
         Ok(StepStats {
             wall_seconds: start.elapsed().as_secs_f64(),
             sim_time: time,

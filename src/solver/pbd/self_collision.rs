@@ -189,7 +189,7 @@ impl SelfCollision {
             margins: Vec::new(),
             least_margin: 0.2 * mean_edge,
             size: {
-                let (lo, hi) = rest.iter().fold((DVec3::MAX, DVec3::MIN), |(l, h), x| (l.min(*x), h.max(*x)));
+                let (lo, hi) = crate::mesh::bounds(rest);
                 (hi - lo).length()
             },
             anchors: Vec::new(),

@@ -339,16 +339,9 @@ impl Rds {
         Some(cubature::relative_errors(&mut built.shell, &built.basis, rest, &fitted, count, UNSEEN_SEED))
     }
 
-    /// Gravity on the lumped masses plus the point loads, N.
-    fn scene_forces(&self) -> Vec<DVec3> {
-        let masses = self.request.masses();
-        masses.iter().zip(&self.loads).map(|(m, l)| self.gravity * *m + *l).collect()
-    }
-
-    /// The external forces of the coming step: gravity, point loads and the wind on the shell as the
-    /// last step left it, N.
-    fn forces(&self) -> Vec<DVec3> {
-        let base = self.scene_forces();
+    /// The external forces of the coming step: the scene's `base` (gravity and point loads) and the
+    /// wind on the shell as the last step left it, N.
+    fn forces(&self, base: Vec<DVec3>) -> Vec<DVec3> {
         if self.wind.is_calm() {
             return base;
         }
@@ -607,11 +600,13 @@ impl Solver for Rds {
         let start = DVector::from_column_slice(&self.c);
         let velocity = DVector::from_column_slice(&self.v);
         let damping = DMatrix::identity(r, r) * self.settings.alpha + &self.built.rest * self.settings.beta;
+        let scene = self.request.scene_forces(self.gravity, &self.loads);
+        let limit = ENERGY_LIMIT * energy_scale(&scene, self.request.mesh.bounding_box());
         let step = Step {
             predicted: &start + &velocity * h,
             start,
             damping,
-            forces: self.forces(),
+            forces: self.forces(scene),
             springs: springs(
                 &self.drags,
                 &self.built.shell.modal,
@@ -629,7 +624,6 @@ impl Solver for Rds {
         }
         let kinetic = 0.5 * self.v.iter().map(|v| v * v).sum::<f64>();
         let energy = self.built.shell.energy(&self.positions) + kinetic;
-        let limit = ENERGY_LIMIT * energy_scale(&self.scene_forces(), self.request.mesh.bounding_box());
         check_finite(self.steps, time, &[], energy, limit)?;
         Ok(StepStats {
             wall_seconds: wall.elapsed().as_secs_f64(),
