@@ -3,25 +3,29 @@
 //!
 //! The ordering is faer's approximate minimum degree by default, or one supplied by the caller
 //! (e.g. [`super::ordering::nested_dissection`] expanded to DOFs). The factorisation runs on the
-//! calling thread; a solve with several right sides splits its columns over the threads of
-//! [`crate::threads`] (faer's blocked kernels then group the columns differently, so a column may
-//! differ in its last bits from a solve on one thread). faer's own parallel factorisation measured
-//! hardly faster than one thread on a large shell (`BENCHMARKS.md`, *Design measurements quoted from
-//! module docs*).
+//! calling thread (faer's own parallel factorisation measured hardly faster than one thread on a
+//! large shell: `BENCHMARKS.md`, *Design measurements quoted from module docs*). A supernodal factor
+//! is solved with by [`super::supernodal_solve`], eight or four right sides a pass over the factor;
+//! several passes are split over the threads of [`crate::threads`]. Each column's solution is the
+//! same to the bit however the columns are batched and on however many threads. A factor faer keeps
+//! column by column (small or very sparse matrices) is solved with by faer.
 
 use dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::perm::Perm;
 use faer::sparse::SparseColMatRef;
+use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
+    factorize_symbolic_cholesky,
 };
 use faer::{Conj, MatMut, Par, Side};
 
 use super::LinalgError;
+use super::supernodal_solve::Lanes;
 
-/// Right sides (unknowns × columns) from which a solve with several columns is split over threads:
-/// below it the hand-over costs more than it saves.
+/// Right sides (unknowns × columns) from which a solve with more than one pass is split over
+/// threads: below it the hand-over costs more than it saves.
 const PARALLEL_SOLVE: usize = 1 << 16;
 
 /// A reusable symbolic Cholesky factorisation of one sparsity pattern (reads the upper triangle).
@@ -96,7 +100,7 @@ impl SparseCholesky {
     }
 
     /// Solve `A X = B` in place for `columns` right-hand sides stored column after column in `b`
-    /// (one pass over the factor for all of them).
+    /// (one pass over the factor for each eight of them, or four for the last few).
     pub fn solve_many(&self, b: &mut [f64], columns: usize) -> Result<(), LinalgError> {
         if !self.factored {
             return Err(LinalgError::NotPositiveDefinite("no successful factorisation to solve with".into()));
@@ -105,19 +109,43 @@ impl SparseCholesky {
         if columns == 0 || b.len() != n * columns {
             return Err(LinalgError::BadRhs { len: b.len(), rows: n, columns });
         }
-        // Columns are independent: with several threads each solves its share, one pass over the
-        // factor apiece.
-        let threads = crate::threads::threads().min(columns);
+        let SymbolicCholeskyRaw::Supernodal(supernodal) = self.symbolic.raw() else {
+            return self.solve_simplicial(b, columns);
+        };
+        let solve = |part: &mut [f64]| match part.len() / n {
+            ..=4 => self.pass::<4>(supernodal, part),
+            _ => self.pass::<8>(supernodal, part),
+        };
+        let threads = crate::threads::threads().min(columns.div_ceil(8));
         if threads > 1 && n * columns >= PARALLEL_SOLVE {
             use rayon::prelude::*;
-            let per = columns.div_ceil(threads);
-            return b.par_chunks_mut(n * per).try_for_each(|part| self.solve_serial(part, part.len() / n));
+            b.par_chunks_mut(8 * n).for_each(solve);
+        } else {
+            b.chunks_mut(8 * n).for_each(solve);
         }
-        self.solve_serial(b, columns)
+        Ok(())
     }
 
-    /// [`SparseCholesky::solve_many`] on the calling thread.
-    fn solve_serial(&self, b: &mut [f64], columns: usize) -> Result<(), LinalgError> {
+    /// One pass over the factor for the (at most `W`) columns of `part`: permuted into the factor's
+    /// order with their values side by side, solved, and put back.
+    fn pass<const W: usize>(&self, supernodal: &SymbolicSupernodalCholesky<usize>, part: &mut [f64]) {
+        let n = self.symbolic.nrows();
+        let order = self.symbolic.perm().map(|p| p.arrays().0);
+        let row = |i: usize| order.map_or(i, |o| o[i]);
+        let width = part.len() / n;
+        let mut x = vec![Lanes::<W>::default(); n];
+        for (i, xi) in x.iter_mut().enumerate() {
+            (0..width).for_each(|c| xi.0[c] = part[c * n + row(i)]);
+        }
+        super::supernodal_solve::solve(supernodal, &self.values, &mut x, &mut Vec::new());
+        for (i, xi) in x.iter().enumerate() {
+            (0..width).for_each(|c| part[c * n + row(i)] = xi.0[c]);
+        }
+    }
+
+    /// [`SparseCholesky::solve_many`] for a factor faer stored column by column (small or very
+    /// sparse matrices), by faer's own solve.
+    fn solve_simplicial(&self, b: &mut [f64], columns: usize) -> Result<(), LinalgError> {
         let n = self.symbolic.nrows();
         let need = self.symbolic.solve_in_place_scratch::<f64>(columns, Par::Seq);
         let mut scratch =
@@ -154,5 +182,50 @@ mod tests {
         a.add_diagonal(&[-10.0; 6]);
         assert!(chol.factor(a.matrix()).is_err());
         assert!(chol.solve(&mut b).is_err());
+    }
+
+    /// A cubic grid's weighted Laplacian plus a mass, `side³` unknowns, as faer's upper triangle
+    /// (diagonally dominant, so positive definite; in three dimensions the factor fills enough for
+    /// faer to store it by supernodes).
+    fn grid(side: usize) -> faer::sparse::SparseColMat<usize, f64> {
+        let id = |i: usize, j: usize, k: usize| (i * side + j) * side + k;
+        let mut entries = Vec::new();
+        for (i, j, k) in (0..side).flat_map(|i| (0..side).flat_map(move |j| (0..side).map(move |k| (i, j, k)))) {
+            let here = id(i, j, k);
+            entries.push(faer::sparse::Triplet::new(here, here, 6.01 + 0.001 * (i + 2 * j + 3 * k) as f64));
+            for (step, weight) in [((1, 0, 0), 1.0), ((0, 1, 0), 0.9 + 0.002 * i as f64), ((0, 0, 1), 0.8)] {
+                let (a, b, c) = (i + step.0, j + step.1, k + step.2);
+                if a < side && b < side && c < side {
+                    entries.push(faer::sparse::Triplet::new(here, id(a, b, c), -weight));
+                }
+            }
+        }
+        faer::sparse::SparseColMat::try_new_from_triplets(side.pow(3), side.pow(3), &entries).unwrap()
+    }
+
+    #[test]
+    fn the_supernodal_solve_agrees_with_faers_for_any_number_of_right_sides() {
+        let side: usize = 14;
+        let n = side.pow(3);
+        let a = grid(side);
+        let mut chol = SparseCholesky::new(a.as_ref()).unwrap();
+        chol.factor(a.as_ref()).unwrap();
+        assert!(matches!(chol.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)), "the test must reach the kernel");
+        let mut random = crate::linalg::random::Rng(7);
+        for columns in [1, 3, 4, 5, 9] {
+            let b: Vec<f64> = (0..n * columns).map(|_| random.uniform()).collect();
+            let (mut ours, mut faers) = (b.clone(), b.clone());
+            chol.solve_many(&mut ours, columns).unwrap();
+            chol.solve_simplicial(&mut faers, columns).unwrap();
+            let scale = faers.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let worst = ours.iter().zip(&faers).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+            assert!(worst < 1e-13 * scale, "{columns} columns: {worst:.2e} of {scale:.2e}");
+            // Each column is the same to the bit however the columns are batched.
+            for c in 0..columns {
+                let mut alone = b[c * n..(c + 1) * n].to_vec();
+                chol.solve(&mut alone).unwrap();
+                assert_eq!(alone, ours[c * n..(c + 1) * n], "{columns} columns: column {c} batched differs");
+            }
+        }
     }
 }

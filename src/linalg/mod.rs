@@ -23,6 +23,7 @@ pub mod padded;
 pub mod random;
 pub mod real;
 mod substitution;
+mod supernodal_solve;
 pub mod tree_split;
 mod vector_cholesky;
 

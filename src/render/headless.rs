@@ -116,7 +116,14 @@ fn read_texture_with(gpu: &Gpu, texture: &wgpu::Texture, readback: &wgpu::Buffer
         .map_err(|e| RenderError::Map(e.to_string()))?;
 
     let row_bytes = width as usize * 4;
-    let mut pixels = Vec::with_capacity(row_bytes * height as usize);
+    // Fallible: under an address-space limit the picture's memory is an error, not an abort.
+    let mut pixels = Vec::new();
+    pixels.try_reserve_exact(row_bytes * height as usize).map_err(|e| {
+        RenderError::Map(format!(
+            "no memory for the {width}x{height} picture ({} bytes): {e}",
+            row_bytes * height as usize
+        ))
+    })?;
     {
         let data = slice.get_mapped_range().map_err(|e| RenderError::Map(e.to_string()))?;
         for row in data.chunks(padded as usize).take(height as usize) {
