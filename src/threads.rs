@@ -1,17 +1,17 @@
 //! How many threads the numerical work may use: one setting for every command.
 //!
 //! The count comes from `--threads N` (any subcommand), else the environment variable
-//! `SHELLWARP_THREADS`, else every core the process may run on. It sizes rayon's global pool, over
-//! which a sparse solve with several right sides splits its columns (the modal analysis's block
-//! solves, [`crate::linalg::SparseCholesky::solve_many`]), `mwts-rs`'s step runs the two halves
-//! of its triangle pass and of its reconstruction solve ([`join`], inside the pool: [`in_pool`]),
-//! `mwts`'s and `lma`'s the two halves of a large vertex pass, and [`par`] hands the same count to
-//! faer for the eigen solver's dense products. The evaluation's `--jobs` run one case per job, and the
+//! `SHELLWARP_THREADS`, else every core the process may run on. It sizes rayon's global pool, in
+//! which a sparse solve runs the two halves of its factor's elimination tree at once (the modal
+//! analysis's block solves, [`crate::linalg::SparseCholesky::solve_many`]), `mwts-rs`'s step runs
+//! the two halves of its triangle pass and of its reconstruction solve ([`join`], inside the pool:
+//! [`in_pool`]), `mwts`'s and `lma`'s the two halves of a large vertex pass, and [`par`] hands the
+//! same count to faer for the eigen solver's dense products. The evaluation's `--jobs` run one case per job, and the
 //! viewer's simulation thread steps the solver; large modal steps of either share the pool's threads.
 //!
-//! faer's blocked kernels group a split block's columns differently, so the modal analysis and the
-//! implicit solves agree across thread counts to round-off, not to the bit (tested in
-//! `tests/threads.rs`: the creature's eigenvalues to 1e-12, an implicit step of it to 1e-12).
+//! faer's dense products group their work by thread count, so the modal analysis and the implicit
+//! solves agree across thread counts to round-off, not to the bit (tested in `tests/threads.rs`: the
+//! creature's eigenvalues to 1e-12, an implicit step of it to 1e-12).
 //! The modal steps' halves are summed in the same order on one thread as on two, so their steps
 //! agree to the bit (tested there too).
 

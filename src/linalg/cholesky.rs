@@ -5,10 +5,12 @@
 //! (e.g. [`super::ordering::nested_dissection`] expanded to DOFs). The factorisation runs on the
 //! calling thread (faer's own parallel factorisation measured hardly faster than one thread on a
 //! large shell: `BENCHMARKS.md`, *Design measurements quoted from module docs*). A supernodal factor
-//! is solved with by [`super::supernodal_solve`], eight or four right sides a pass over the factor;
-//! several passes are split over the threads of [`crate::threads`]. Each column's solution is the
-//! same to the bit however the columns are batched and on however many threads. A factor faer keeps
-//! column by column (small or very sparse matrices) is solved with by faer.
+//! is solved with by [`super::supernodal_solve`], eight or four right sides a pass over the factor.
+//! Where its elimination tree has two independent halves ([`super::supernodal_split`]) a pass runs
+//! them at once on two threads of [`crate::threads`], or in turn on one; otherwise several passes are
+//! split over the threads. Each column's solution is the same to the bit however the columns are
+//! batched and on however many threads. A factor faer keeps column by column (small or very sparse
+//! matrices) is solved with by faer.
 
 use dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
@@ -22,7 +24,8 @@ use faer::sparse::linalg::cholesky::{
 use faer::{Conj, MatMut, Par, Side};
 
 use super::LinalgError;
-use super::supernodal_solve::Lanes;
+use super::supernodal_solve::{Lanes, Part, backward, forward};
+use super::supernodal_split::SupernodalSplit;
 
 /// Right sides (unknowns × columns) from which a solve with more than one pass is split over
 /// threads: below it the hand-over costs more than it saves.
@@ -32,6 +35,8 @@ const PARALLEL_SOLVE: usize = 1 << 16;
 #[derive(Debug)]
 pub struct SparseCholesky {
     symbolic: SymbolicCholesky<usize>,
+    /// Two independent halves of the supernodal factor's tree, if it has them.
+    split: Option<SupernodalSplit>,
     values: Vec<f64>,
     factored: bool,
 }
@@ -70,7 +75,11 @@ impl SparseCholesky {
         let symbolic =
             factorize_symbolic_cholesky(matrix.symbolic(), Side::Upper, ordering, CholeskySymbolicParams::default())
                 .map_err(|e| LinalgError::Symbolic(format!("{e:?}")))?;
-        Ok(Self { values: vec![0.0; symbolic.len_val()], symbolic, factored: false })
+        let split = match symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(supernodal) => super::supernodal_split::split(supernodal),
+            SymbolicCholeskyRaw::Simplicial(_) => None,
+        };
+        Ok(Self { values: vec![0.0; symbolic.len_val()], symbolic, split, factored: false })
     }
 
     /// Factorise `matrix` (same pattern as at construction). Fails if it is not positive definite.
@@ -116,8 +125,9 @@ impl SparseCholesky {
             ..=4 => self.pass::<4>(supernodal, part),
             _ => self.pass::<8>(supernodal, part),
         };
+        // With halves, each pass runs them on two threads; without, the passes are split over them.
         let threads = crate::threads::threads().min(columns.div_ceil(8));
-        if threads > 1 && n * columns >= PARALLEL_SOLVE {
+        if threads > 1 && n * columns >= PARALLEL_SOLVE && self.split.is_none() {
             use rayon::prelude::*;
             b.par_chunks_mut(8 * n).for_each(solve);
         } else {
@@ -137,10 +147,83 @@ impl SparseCholesky {
         for (i, xi) in x.iter_mut().enumerate() {
             (0..width).for_each(|c| xi.0[c] = part[c * n + row(i)]);
         }
-        super::supernodal_solve::solve(supernodal, &self.values, &mut x, &mut Vec::new());
+        self.substitute(supernodal, &mut x);
         for (i, xi) in x.iter().enumerate() {
             (0..width).for_each(|c| part[c * n + row(i)] = xi.0[c]);
         }
+    }
+
+    /// Solve `L Lᵀ x = y` in place (`y` in the factor's order): with halves, in phases (forward: the
+    /// halves, what the top takes from each added to it, the top; backward: the top, then the
+    /// halves), the halves at once on two threads or in turn on one, with the same sums either way.
+    fn substitute<const W: usize>(&self, supernodal: &SymbolicSupernodalCholesky<usize>, x: &mut [Lanes<W>]) {
+        let (n, values) = (x.len(), &self.values[..]);
+        let Some(SupernodalSplit { supernodes: [first, second, top], columns: [middle, high] }) = self.split.clone()
+        else {
+            forward(
+                supernodal,
+                values,
+                Part { supernodes: 0..supernodal.n_supernodes(), base: 0, x, outside: n },
+                &mut [],
+            );
+            let all = Part { supernodes: 0..supernodal.n_supernodes(), base: 0, x, outside: n };
+            return backward(supernodal, values, all, &[]);
+        };
+        let together = crate::threads::threads() > 1 && n * W >= PARALLEL_SOLVE;
+        let both = |a: &mut (dyn FnMut() + Send), b: &mut (dyn FnMut() + Send)| {
+            if together {
+                rayon::join(a, b);
+            } else {
+                a();
+                b();
+            }
+        };
+        let (low, rest) = x.split_at_mut(middle);
+        let (mid, upper) = rest.split_at_mut(high - middle);
+        let mut taken = [vec![Lanes::<W>::default(); n - high], vec![Lanes::<W>::default(); n - high]];
+        let [taken_low, taken_mid] = &mut taken;
+        both(
+            &mut || {
+                forward(
+                    supernodal,
+                    values,
+                    Part { supernodes: first.clone(), base: 0, x: &mut *low, outside: high },
+                    &mut taken_low[..],
+                )
+            },
+            &mut || {
+                forward(
+                    supernodal,
+                    values,
+                    Part { supernodes: second.clone(), base: middle, x: &mut *mid, outside: high },
+                    &mut taken_mid[..],
+                )
+            },
+        );
+        for t in &taken {
+            upper.iter_mut().zip(t).for_each(|(u, t)| *u = u.plus(*t));
+        }
+        forward(supernodal, values, Part { supernodes: top.clone(), base: high, x: upper, outside: n }, &mut []);
+        backward(supernodal, values, Part { supernodes: top, base: high, x: upper, outside: n }, &[]);
+        let upper = &*upper;
+        both(
+            &mut || {
+                backward(
+                    supernodal,
+                    values,
+                    Part { supernodes: first.clone(), base: 0, x: &mut *low, outside: high },
+                    upper,
+                )
+            },
+            &mut || {
+                backward(
+                    supernodal,
+                    values,
+                    Part { supernodes: second.clone(), base: middle, x: &mut *mid, outside: high },
+                    upper,
+                )
+            },
+        );
     }
 
     /// [`SparseCholesky::solve_many`] for a factor faer stored column by column (small or very
@@ -203,14 +286,9 @@ mod tests {
         faer::sparse::SparseColMat::try_new_from_triplets(side.pow(3), side.pow(3), &entries).unwrap()
     }
 
-    #[test]
-    fn the_supernodal_solve_agrees_with_faers_for_any_number_of_right_sides() {
-        let side: usize = 14;
-        let n = side.pow(3);
-        let a = grid(side);
-        let mut chol = SparseCholesky::new(a.as_ref()).unwrap();
-        chol.factor(a.as_ref()).unwrap();
-        assert!(matches!(chol.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)), "the test must reach the kernel");
+    /// Solve `a` with `chol` for 1 to 9 right sides: as faer does (to round-off), and each column the
+    /// same to the bit however the columns are batched.
+    fn agrees_with_faer(chol: &SparseCholesky, n: usize) {
         let mut random = crate::linalg::random::Rng(7);
         for columns in [1, 3, 4, 5, 9] {
             let b: Vec<f64> = (0..n * columns).map(|_| random.uniform()).collect();
@@ -220,12 +298,43 @@ mod tests {
             let scale = faers.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             let worst = ours.iter().zip(&faers).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
             assert!(worst < 1e-13 * scale, "{columns} columns: {worst:.2e} of {scale:.2e}");
-            // Each column is the same to the bit however the columns are batched.
             for c in 0..columns {
                 let mut alone = b[c * n..(c + 1) * n].to_vec();
                 chol.solve(&mut alone).unwrap();
                 assert_eq!(alone, ours[c * n..(c + 1) * n], "{columns} columns: column {c} batched differs");
             }
         }
+    }
+
+    #[test]
+    fn the_supernodal_solve_agrees_with_faers_for_any_number_of_right_sides() {
+        let side: usize = 14;
+        let a = grid(side);
+        let mut chol = SparseCholesky::new(a.as_ref()).unwrap();
+        chol.factor(a.as_ref()).unwrap();
+        assert!(matches!(chol.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)), "the test must reach the kernel");
+        agrees_with_faer(&chol, side.pow(3));
+    }
+
+    #[test]
+    fn a_factor_with_two_halves_is_solved_in_phases_as_faer_solves_it() {
+        // Dissected once: the planes before the middle one, those after it (from the far end, so that
+        // each half's plane next to the middle comes last), then the middle plane (the separator):
+        // two halves that never meet, and their top.
+        let side: usize = 15;
+        let plane = |i: usize| (i * side * side..(i + 1) * side * side).collect::<Vec<_>>();
+        let order: Vec<usize> = (0..7).chain((8..side).rev()).chain([7]).flat_map(plane).collect();
+        let a = grid(side);
+        let mut chol = SparseCholesky::with_order(a.as_ref(), &order).unwrap();
+        chol.factor(a.as_ref()).unwrap();
+        let split = chol.split.clone().expect("a dissected grid has halves");
+        let [low, high] = split.columns;
+        let plane_size = side * side;
+        assert!((5 * plane_size..=7 * plane_size).contains(&low), "{split:?}");
+        assert!((low..side.pow(3) - plane_size).contains(&high), "{split:?}");
+        agrees_with_faer(&chol, side.pow(3));
+        // The plain natural order has no halves (a chain).
+        let plain = SparseCholesky::with_order(a.as_ref(), &(0..side.pow(3)).collect::<Vec<_>>()).unwrap();
+        assert_eq!(plain.split, None);
     }
 }

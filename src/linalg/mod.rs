@@ -24,6 +24,7 @@ pub mod random;
 pub mod real;
 mod substitution;
 mod supernodal_solve;
+mod supernodal_split;
 pub mod tree_split;
 mod vector_cholesky;
 

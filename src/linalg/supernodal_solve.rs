@@ -20,8 +20,15 @@
 //! with a transposition of every four of them). Figures: `BENCHMARKS.md`, *Modal analysis: the
 //! factor read once per solve*.
 //!
+//! A substitution covers a [`Part`]: a range of supernodes and their unknowns, so that the two
+//! halves of a split tree ([`super::supernodal_split`]) can run apart. What the forward substitution
+//! of a part takes from rows outside it is added to a vector of its own, and the backward one reads
+//! those rows, solved, from another.
+//!
 //! The sums are taken in a fixed order that depends neither on `W` nor on the thread, so each
 //! column's solution is the same to the bit however the columns are batched.
+
+use std::ops::Range;
 
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 
@@ -84,7 +91,7 @@ impl<const W: usize> Lanes<W> {
 
     /// Lane-wise sum.
     #[inline(always)]
-    fn plus(self, v: Self) -> Self {
+    pub(super) fn plus(self, v: Self) -> Self {
         let mut out = self;
         for (o, &b) in out.0.iter_mut().zip(&v.0) {
             *o += b;
@@ -93,13 +100,43 @@ impl<const W: usize> Lanes<W> {
     }
 }
 
-/// Solve `L Lᵀ x = y` in place (`y` already in the factor's order), with `buffer` as scratch.
-pub(super) fn solve<const W: usize>(
+/// What one substitution covers: the supernodes `supernodes`, whose columns are the unknowns `x`
+/// (the first being column `base`), and the rows from `outside` on, which are not in `x`.
+pub(super) struct Part<'a, const W: usize> {
+    /// The supernodes, in order.
+    pub(super) supernodes: Range<usize>,
+    /// The first unknown of `x`.
+    pub(super) base: usize,
+    /// The supernodes' unknowns, solved in place.
+    pub(super) x: &'a mut [Lanes<W>],
+    /// The first row not in `x` (the top of a split, or past the end).
+    pub(super) outside: usize,
+}
+
+/// The forward substitution `L y = b` over `part`: what its columns take from the rows outside it is
+/// added to `taken` (indexed from `part.outside`).
+pub(super) fn forward<const W: usize>(
     symbolic: &SymbolicSupernodalCholesky<usize>,
     values: &[f64],
-    x: &mut [Lanes<W>],
-    buffer: &mut Vec<Lanes<W>>,
+    part: Part<'_, W>,
+    taken: &mut [Lanes<W>],
 ) {
+    run(Substitution { fused: Scalar, symbolic, values, part, rows_outside: Outside::Taken(taken) });
+}
+
+/// The backward substitution `Lᵀ x = y` over `part`, the rows outside it already solved (`solved`,
+/// indexed from `part.outside`).
+pub(super) fn backward<const W: usize>(
+    symbolic: &SymbolicSupernodalCholesky<usize>,
+    values: &[f64],
+    part: Part<'_, W>,
+    solved: &[Lanes<W>],
+) {
+    run(Substitution { fused: Scalar, symbolic, values, part, rows_outside: Outside::Solved(solved) });
+}
+
+/// Run `kernel` with AVX2's multiply-adds where the CPU has them and `W` fills whole registers.
+fn run<const W: usize>(kernel: Substitution<'_, W, Scalar>) {
     #[cfg(target_arch = "x86_64")]
     if W.is_multiple_of(4)
         && let Some(simd) = pulp::x86::V3::try_new()
@@ -112,17 +149,25 @@ pub(super) fn solve<const W: usize>(
                 self.0.run()
             }
         }
-        return pulp::Simd::vectorize(simd, Run(Substitution { fused: simd, symbolic, values, x, buffer }));
+        let Substitution { symbolic, values, part, rows_outside, .. } = kernel;
+        return pulp::Simd::vectorize(simd, Run(Substitution { fused: simd, symbolic, values, part, rows_outside }));
     }
-    avx2(Substitution { fused: Scalar, symbolic, values, x, buffer });
+    avx2(kernel);
+}
+
+/// The rows outside a part: where the forward substitution adds to them, or the backward one reads
+/// them.
+enum Outside<'a, const W: usize> {
+    Taken(&'a mut [Lanes<W>]),
+    Solved(&'a [Lanes<W>]),
 }
 
 struct Substitution<'a, const W: usize, F> {
     fused: F,
     symbolic: &'a SymbolicSupernodalCholesky<usize>,
     values: &'a [f64],
-    x: &'a mut [Lanes<W>],
-    buffer: &'a mut Vec<Lanes<W>>,
+    part: Part<'a, W>,
+    rows_outside: Outside<'a, W>,
 }
 
 impl<const W: usize, F: Fused<W>> Kernel for Substitution<'_, W, F> {
@@ -130,39 +175,46 @@ impl<const W: usize, F: Fused<W>> Kernel for Substitution<'_, W, F> {
 
     #[inline(always)]
     fn run(self) {
-        let Self { fused, symbolic, values, x, buffer } = self;
-        let supernodes = symbolic.n_supernodes();
+        let Self { fused, symbolic, values, part: Part { supernodes, base, x, outside }, rows_outside } = self;
         let node = |s: usize| Node {
-            start: symbolic.supernode_begin()[s],
+            start: symbolic.supernode_begin()[s] - base,
             size: symbolic.supernode_end()[s] - symbolic.supernode_begin()[s],
             values: &values[symbolic.col_ptr_for_val()[s]..symbolic.col_ptr_for_val()[s + 1]],
         };
-        for s in 0..supernodes {
-            let (node, rows) = (node(s), symbolic.supernode(s).pattern());
-            buffer.clear();
-            buffer.resize(rows.len(), Lanes::default());
-            for first in (0..node.size).step_by(BLOCK) {
-                match node.size - first {
-                    1 => node.forward::<W, 1, F>(fused, first, x, buffer),
-                    2 => node.forward::<W, 2, F>(fused, first, x, buffer),
-                    3 => node.forward::<W, 3, F>(fused, first, x, buffer),
-                    _ => node.forward::<W, BLOCK, F>(fused, first, x, buffer),
+        let mut buffer = Vec::new();
+        match rows_outside {
+            Outside::Taken(taken) => {
+                for s in supernodes {
+                    let (node, rows) = (node(s), symbolic.supernode(s).pattern());
+                    buffer.clear();
+                    buffer.resize(rows.len(), Lanes::default());
+                    for first in (0..node.size).step_by(BLOCK) {
+                        match node.size - first {
+                            1 => node.forward::<W, 1, F>(fused, first, x, &mut buffer),
+                            2 => node.forward::<W, 2, F>(fused, first, x, &mut buffer),
+                            3 => node.forward::<W, 3, F>(fused, first, x, &mut buffer),
+                            _ => node.forward::<W, BLOCK, F>(fused, first, x, &mut buffer),
+                        }
+                    }
+                    for (&r, t) in rows.iter().zip(&buffer) {
+                        let row = if r < outside { &mut x[r - base] } else { &mut taken[r - outside] };
+                        *row = row.plus(*t);
+                    }
                 }
             }
-            for (&r, t) in rows.iter().zip(buffer.iter()) {
-                x[r] = x[r].plus(*t);
-            }
-        }
-        for s in (0..supernodes).rev() {
-            let (node, rows) = (node(s), symbolic.supernode(s).pattern());
-            buffer.clear();
-            buffer.extend(rows.iter().map(|&r| x[r]));
-            for first in (0..node.size).step_by(BLOCK).rev() {
-                match node.size - first {
-                    1 => node.backward::<W, 1, F>(fused, first, x, buffer),
-                    2 => node.backward::<W, 2, F>(fused, first, x, buffer),
-                    3 => node.backward::<W, 3, F>(fused, first, x, buffer),
-                    _ => node.backward::<W, BLOCK, F>(fused, first, x, buffer),
+            Outside::Solved(solved) => {
+                for s in supernodes.rev() {
+                    let (node, rows) = (node(s), symbolic.supernode(s).pattern());
+                    buffer.clear();
+                    buffer.extend(rows.iter().map(|&r| if r < outside { x[r - base] } else { solved[r - outside] }));
+                    for first in (0..node.size).step_by(BLOCK).rev() {
+                        match node.size - first {
+                            1 => node.backward::<W, 1, F>(fused, first, x, &buffer),
+                            2 => node.backward::<W, 2, F>(fused, first, x, &buffer),
+                            3 => node.backward::<W, 3, F>(fused, first, x, &buffer),
+                            _ => node.backward::<W, BLOCK, F>(fused, first, x, &buffer),
+                        }
+                    }
                 }
             }
         }
