@@ -2,8 +2,9 @@
 //!
 //! The count comes from `--threads N` (any subcommand), else the environment variable
 //! `SHELLWARP_THREADS`, else every core the process may run on. It sizes rayon's global pool, in
-//! which a sparse solve runs the two halves of its factor's elimination tree at once (the modal
-//! analysis's block solves, [`crate::linalg::SparseCholesky::solve_many`]), `mwts-rs`'s step runs
+//! which a sparse solve runs the two halves of its factor's elimination tree at once, or splits its
+//! passes over the factor when it has no halves (the modal analysis's block solves,
+//! [`crate::linalg::SparseCholesky::solve_many`]), `mwts-rs`'s step runs
 //! the two halves of its triangle pass and of its reconstruction solve ([`join`], inside the pool:
 //! [`in_pool`]), `mwts`'s and `lma`'s the two halves of a large vertex pass, and [`par`] hands the
 //! same count to faer for the eigen solver's dense products. The evaluation's `--jobs` run one case per job, and the

@@ -6,11 +6,12 @@
 //! calling thread (faer's own parallel factorisation measured hardly faster than one thread on a
 //! large shell: `BENCHMARKS.md`, *Design measurements quoted from module docs*). A supernodal factor
 //! is solved with by [`super::supernodal_solve`], eight or four right sides a pass over the factor.
-//! Where its elimination tree has two independent halves ([`super::supernodal_split`]) a pass runs
-//! them at once on two threads of [`crate::threads`], or in turn on one; otherwise several passes are
-//! split over the threads. Each column's solution is the same to the bit however the columns are
-//! batched and on however many threads. A factor faer keeps column by column (small or very sparse
-//! matrices) is solved with by faer.
+//! Where its elimination tree has two independent halves ([`super::supernodal_split`]) a large pass
+//! runs them at once on two threads of [`crate::threads`], or in turn on one; otherwise several large
+//! passes are split over the threads, and a single pass (up to eight columns) runs on one thread.
+//! Each column's solution is the same to the bit however the columns are batched and on however
+//! many threads. A factor faer keeps column by column (small or very sparse matrices) is solved with
+//! by faer.
 
 use dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
@@ -27,8 +28,10 @@ use super::LinalgError;
 use super::supernodal_solve::{Lanes, Part, backward, forward};
 use super::supernodal_split::SupernodalSplit;
 
-/// Right sides (unknowns × columns) from which a solve with more than one pass is split over
-/// threads: below it the hand-over costs more than it saves.
+/// Unknowns × right sides of a pass (four or eight, however few columns are asked for) from which
+/// the halves of a split factor run on two threads, and unknowns × columns from which the passes of
+/// a factor without halves are split over the threads: below it the hand-over costs more than it
+/// saves.
 const PARALLEL_SOLVE: usize = 1 << 16;
 
 /// A reusable symbolic Cholesky factorisation of one sparsity pattern (reads the upper triangle).
@@ -117,6 +120,9 @@ impl SparseCholesky {
         let n = self.symbolic.nrows();
         if columns == 0 || b.len() != n * columns {
             return Err(LinalgError::BadRhs { len: b.len(), rows: n, columns });
+        }
+        if n == 0 {
+            return Ok(());
         }
         let SymbolicCholeskyRaw::Supernodal(supernodal) = self.symbolic.raw() else {
             return self.solve_simplicial(b, columns);

@@ -109,7 +109,8 @@ pub(super) struct Part<'a, const W: usize> {
     pub(super) base: usize,
     /// The supernodes' unknowns, solved in place.
     pub(super) x: &'a mut [Lanes<W>],
-    /// The first row not in `x` (the top of a split, or past the end).
+    /// Rows from this one on are outside the part (the top of a split, or past the end); the rows
+    /// below it that the part's patterns hold are all in `x`.
     pub(super) outside: usize,
 }
 

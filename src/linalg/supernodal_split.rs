@@ -3,12 +3,12 @@
 //!
 //! The reasoning is [`super::tree_split`]'s, on supernodes: a supernode's pattern holds only
 //! ancestors of its columns, so two disjoint sets of whole subtrees never meet in a row of `L`, and
-//! only their common ancestors (the *top*) take from both. Here the unknowns are not relabelled:
-//! faer numbers the supernodes so that every subtree is a range ending at its root (a postorder), and
-//! the halves are found where they already are ranges. The top is the chain from the root down to the
-//! first supernode with more than one child (or, under several roots, empty); the subtrees of that
-//! supernode's children tile the supernodes before the chain, and are dealt into a first and a second
-//! consecutive group, cut where their work (values of `L`) balances best. The split is given up when
+//! only their common ancestors (the *top*) take from both. Here the unknowns are not relabelled
+//! (faer keeps the caller's order), so halves are found only where they already are ranges. The top
+//! is the chain from the root down to the first supernode with more than one child (or, under
+//! several roots, empty); where the subtrees of that supernode's children tile the supernodes before
+//! the chain (checked), they are dealt into a first and a second consecutive group, cut where their
+//! work (values of `L`) balances best. The split is given up when
 //! the halves differ by more than [`BALANCE`] or the top carries more than [`MAX_TOP`] of the work.
 //! A nested-dissection order (the modal analysis's) has exactly this shape: the first separator is
 //! the chain, its two sides the halves.
