@@ -175,10 +175,11 @@ impl SparseCholesky {
             let all = Part { supernodes: 0..supernodal.n_supernodes(), base: 0, x, outside: n };
             return backward(supernodal, values, all, &[]);
         };
-        let together = crate::threads::threads() > 1 && n * W >= PARALLEL_SOLVE;
+        // At once on two threads where there are several ([`crate::threads::join`]) and the pass is
+        // large enough to be worth the hand-over.
         let both = |a: &mut (dyn FnMut() + Send), b: &mut (dyn FnMut() + Send)| {
-            if together {
-                rayon::join(a, b);
+            if n * W >= PARALLEL_SOLVE {
+                crate::threads::join(a, b);
             } else {
                 a();
                 b();
