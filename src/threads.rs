@@ -16,7 +16,8 @@
 //! The modal steps' halves are summed in the same order on one thread as on two, so their steps
 //! agree to the bit (tested there too).
 
-use std::sync::OnceLock;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, OnceLock, PoisonError};
 
 use faer::Par;
 
@@ -89,6 +90,69 @@ pub fn join_sum(a: impl FnOnce() -> Vec<f64> + Send, b: impl FnOnce() -> Vec<f64
     one
 }
 
+/// Run `tasks`, each with its phase (phases ascending), on the pool's threads at once: the tasks of a
+/// phase in any order and on any thread, each once, and a phase's only after every task of the
+/// phase before it has ended (its writes seen). Each thread takes the next task in order and, if the
+/// phase before has tasks still running, waits for them (spinning: they are running, so not for
+/// long). No task waits for one not yet taken, so the phases cannot stall, even when no other thread
+/// is free to help and the calling thread runs them all in order (as it does on one thread). One
+/// start of the threads for all the phases, instead of a join each.
+pub fn phases<T: Send>(tasks: Vec<(usize, T)>, run: impl Fn(T) + Sync) {
+    if threads() == 1 || tasks.len() < 2 {
+        tasks.into_iter().for_each(|(_, task)| run(task));
+        return;
+    }
+    // Phases numbered densely, and how many tasks each has.
+    let mut phase = Vec::with_capacity(tasks.len());
+    let mut sizes: Vec<usize> = Vec::new();
+    for (k, (p, _)) in tasks.iter().enumerate() {
+        if k == 0 || *p != tasks[k - 1].0 {
+            sizes.push(0);
+        }
+        *sizes.last_mut().expect("pushed") += 1;
+        phase.push(sizes.len() - 1);
+    }
+    let slots: Vec<Mutex<Option<T>>> = tasks.into_iter().map(|(_, task)| Mutex::new(Some(task))).collect();
+    let (next, ended) = (AtomicUsize::new(0), sizes.iter().map(|_| AtomicUsize::new(0)).collect::<Vec<_>>());
+    // Counts a task as ended however it ends, so that a panic reaches the caller instead of leaving
+    // the other threads waiting.
+    struct Ended<'a>(&'a AtomicUsize);
+    impl Drop for Ended<'_> {
+        fn drop(&mut self) {
+            self.0.fetch_add(1, Ordering::Release);
+        }
+    }
+    let worker = || {
+        loop {
+            let k = next.fetch_add(1, Ordering::Relaxed);
+            let Some(slot) = slots.get(k) else { break };
+            let p = phase[k];
+            if p > 0 {
+                let mut spins = 0u32;
+                while ended[p - 1].load(Ordering::Acquire) < sizes[p - 1] {
+                    spins = spins.wrapping_add(1);
+                    if spins.is_multiple_of(4096) {
+                        std::thread::yield_now();
+                    } else {
+                        std::hint::spin_loop();
+                    }
+                }
+            }
+            let _ended = Ended(&ended[p]);
+            let task = slot.lock().unwrap_or_else(PoisonError::into_inner).take();
+            if let Some(task) = task {
+                run(task);
+            }
+        }
+    };
+    rayon::scope(|s| {
+        for _ in 1..threads() {
+            s.spawn(|_| worker());
+        }
+        worker();
+    });
+}
+
 /// Every core this process may run on.
 fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
@@ -106,6 +170,24 @@ fn start_pool(n: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every task runs once, and each phase's only after the phase before has ended, on the pool's
+    /// threads.
+    #[test]
+    fn phases_run_every_task_once_and_in_order() {
+        let log = Mutex::new(Vec::new());
+        let tasks: Vec<(usize, (usize, usize))> =
+            [0, 0, 0, 2, 2, 5, 7, 7, 7, 7].iter().enumerate().map(|(k, &p)| (p, (p, k))).collect();
+        phases(tasks, |(p, k)| {
+            std::thread::sleep(std::time::Duration::from_micros(200 * (k as u64 % 3)));
+            log.lock().unwrap().push((p, k));
+        });
+        let log = log.into_inner().unwrap();
+        let mut ks: Vec<usize> = log.iter().map(|&(_, k)| k).collect();
+        ks.sort_unstable();
+        assert_eq!(ks, (0..10).collect::<Vec<_>>(), "each task once");
+        assert!(log.windows(2).all(|w| w[0].0 <= w[1].0), "phases in order: {log:?}");
+    }
 
     #[test]
     fn zero_threads_is_refused_and_a_second_different_count_is_reported() {

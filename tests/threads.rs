@@ -95,6 +95,51 @@ fn modal_runs_are_the_same_to_the_bit_on_one_thread_and_on_two() {
 }
 
 #[test]
+fn position_based_runs_are_the_same_to_the_bit_on_one_thread_and_on_two() {
+    // The benchmark's 10,000-particle sheet (`tests/self_collision.rs`: it never intersects itself),
+    // wrinkling out of its plane, so that its self-collision searches run: its sweeps' colours in
+    // pieces on both threads, its triangle scans in two halves, the search's hierarchy refitted in
+    // two subtrees. A colour's lanes are independent and the halves' lists are joined in order, so
+    // one thread and two give the same positions to the bit, and the zero-intersection tests hold on
+    // either.
+    let run = |threads: &str| {
+        json(&[
+            "sim",
+            "--scene",
+            "hanging-sheet",
+            "--set",
+            "mesh.grid.segments=[99,99]",
+            "--set",
+            "solver.method=xpbd",
+            "--set",
+            "solver.step=0.0166666666666667",
+            "--set",
+            "solver.substeps=12",
+            "--set",
+            "solver.sweeps=1",
+            "--set",
+            "solver.thickness=0.002",
+            "--set",
+            "solver.least_area=0.2",
+            "--set",
+            "solver.self_collision=true",
+            "--steps",
+            "300",
+            "--json",
+            "--threads",
+            threads,
+        ])
+    };
+    let (one, two) = (run("1"), run("2"));
+    let depth = one["bbox_max"][2].as_f64().unwrap() - one["bbox_min"][2].as_f64().unwrap();
+    assert!(depth > 0.01, "the sheet left its plane (by {depth} m), so it was searched for pairs");
+    for key in ["final_energy", "bbox_min", "bbox_max", "area_change"] {
+        assert!(!one[key].is_null(), "{key} missing: {one}");
+        assert_eq!(one[key], two[key], "{key}");
+    }
+}
+
+#[test]
 fn a_bad_thread_count_is_one_clear_error() {
     let out = run(&["scenes", "--threads", "0"], &[]);
     assert!(!out.status.success());

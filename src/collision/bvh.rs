@@ -127,6 +127,10 @@ impl Cone {
     }
 }
 
+/// Trees of at least this many nodes have their root's two subtrees refitted at once where there are
+/// several threads.
+const REFIT_SPLIT: usize = 4096;
+
 /// A node: its box, normal cone, largest reach and smallest altitude, and either two children or one
 /// triangle.
 #[derive(Debug, Clone, Copy)]
@@ -341,20 +345,44 @@ impl TriangleTree {
         index
     }
 
-    /// Refit every node from its triangles as they are now (`leaf(triangle)`).
-    pub fn refit(&mut self, leaf: impl Fn(usize) -> Leaf) {
+    /// Refit every node from its triangles as they are now (`leaf(triangle)`): the root's two
+    /// subtrees at once where there are several threads and the tree is large ([`REFIT_SPLIT`]; they
+    /// are ranges of nodes, written apart), then the root. Each node's fit is the same either way.
+    pub fn refit(&mut self, leaf: impl Fn(usize) -> Leaf + Sync) {
+        let split = match self.nodes.first() {
+            Some(root) if root.children[0] != LEAF && crate::threads::threads() > 1 => self.nodes.len() >= REFIT_SPLIT,
+            _ => false,
+        };
+        if split {
+            let [l, r] = self.nodes[0].children;
+            let (root, below) = self.nodes.split_at_mut(1);
+            let (left, right) = below.split_at_mut((r - l) as usize);
+            crate::threads::join(|| Self::refit_nodes(left, l, &leaf), || Self::refit_nodes(right, r, &leaf));
+            let (a, b) = (left[0], right[0]);
+            let root = &mut root[0];
+            (root.lo, root.hi, root.cone, root.reach) =
+                (a.lo.min(b.lo), a.hi.max(b.hi), Cone::merge(a.cone, b.cone), a.reach.max(b.reach));
+        } else {
+            Self::refit_nodes(&mut self.nodes, 0, &leaf);
+        }
+        self.turned.iter().for_each(|&k| self.is_turned[k as usize] = false);
+        self.turned.clear();
+    }
+
+    /// Refit `nodes`, a subtree whose root is node `first` of the tree, from its triangles.
+    fn refit_nodes(nodes: &mut [Node], first: u32, leaf: &impl Fn(usize) -> Leaf) {
         // From the last node back, so that children come before their parents. A node's first child
         // is the node after it, refitted just before: it is carried over in registers, as read back
         // from memory just after being written it waited for the stores to land.
         let mut last = Fit { lo: DVec3::ZERO, hi: DVec3::ZERO, cone: Cone::ALL, reach: 0.0 };
-        for k in (0..self.nodes.len()).rev() {
-            let [l, r] = self.nodes[k].children;
+        for k in (0..nodes.len()).rev() {
+            let [l, r] = nodes[k].children;
             let fit = if l == LEAF {
-                let f = leaf(self.nodes[k].triangle as usize);
+                let f = leaf(nodes[k].triangle as usize);
                 Fit { lo: f.lo, hi: f.hi, cone: Cone::of(f.normal), reach: f.reach }
             } else {
-                debug_assert_eq!(l as usize, k + 1, "a first child follows its parent");
-                let b = &self.nodes[r as usize];
+                debug_assert_eq!((l - first) as usize, k + 1, "a first child follows its parent");
+                let b = &nodes[(r - first) as usize];
                 Fit {
                     lo: last.lo.min(b.lo),
                     hi: last.hi.max(b.hi),
@@ -362,12 +390,10 @@ impl TriangleTree {
                     reach: last.reach.max(b.reach),
                 }
             };
-            let n = &mut self.nodes[k];
+            let n = &mut nodes[k];
             (n.lo, n.hi, n.cone, n.reach) = (fit.lo, fit.hi, fit.cone, fit.reach);
             last = fit;
         }
-        self.turned.iter().for_each(|&k| self.is_turned[k as usize] = false);
-        self.turned.clear();
     }
 
     /// Take `triangle`'s unit normal now (zero if degenerate), its box as it was.

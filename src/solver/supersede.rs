@@ -139,6 +139,27 @@ pub fn unless_superseded<T>(
     }
 }
 
+/// The ticket of the run under way on this thread, if any: for work this run hands to another thread
+/// ([`carrying`]).
+pub fn current() -> Option<Ticket> {
+    CURRENT.with(|c| c.borrow().clone())
+}
+
+/// `f()` with `ticket` as the ticket of this thread's run (the thread's own put back after, however
+/// `f` ends): part of a run handed to another thread, such as a pool thread, stops at its
+/// checkpoints as the run would, and the stop unwinds back through the join to the run's
+/// [`unless_superseded`].
+pub fn carrying<R>(ticket: Option<Ticket>, f: impl FnOnce() -> R) -> R {
+    struct Restore(Option<Ticket>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            CURRENT.with(|c| *c.borrow_mut() = self.0.take());
+        }
+    }
+    let _restore = Restore(CURRENT.with(|c| c.replace(ticket)));
+    f()
+}
+
 thread_local! {
     /// The ticket of the run under way on this thread, if any.
     static CURRENT: RefCell<Option<Ticket>> = const { RefCell::new(None) };
@@ -175,6 +196,36 @@ mod tests {
         });
         assert_eq!((result, passed.get()), (None, 4));
         checkpoint(); // the thread's ticket went with the run
+    }
+
+    /// A run's part handed to another thread with its ticket stops there, and the stop reaches the
+    /// run; without the ticket the other thread's checkpoints do nothing.
+    #[test]
+    fn a_part_of_a_run_on_another_thread_stops_at_its_checkpoints() {
+        let generation = Generation::default();
+        let ticket = generation.next();
+        let passed = std::sync::atomic::AtomicU32::new(0);
+        let on_another = |carried: bool| {
+            let ticket = current().filter(|_| carried);
+            std::thread::scope(|s| {
+                let part = s.spawn(|| {
+                    carrying(ticket, || {
+                        for _ in 0..10 {
+                            checkpoint();
+                            passed.fetch_add(1, Ordering::SeqCst);
+                            generation.cancel_all();
+                        }
+                    })
+                });
+                part.join().unwrap_or_else(|payload| resume_unwind(payload));
+            });
+        };
+        assert_eq!(unless_superseded(&ticket, &|_| {}, |_| on_another(false)), Some(()));
+        assert_eq!(passed.swap(0, Ordering::SeqCst), 10, "no ticket there: nothing stops");
+        let ticket = generation.next();
+        assert_eq!(unless_superseded(&ticket, &|_| {}, |_| on_another(true)), None);
+        assert_eq!(passed.load(Ordering::SeqCst), 1, "stopped at the first checkpoint after the cancel");
+        assert!(current().is_none(), "the thread's own ticket is back");
     }
 
     #[test]

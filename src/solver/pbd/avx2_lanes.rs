@@ -8,7 +8,7 @@ use std::arch::x86_64::{__m256, __m256d};
 use pulp::cast;
 use pulp::x86::V3;
 
-use super::batch::{Batch, CONSTANTS, Indexed, LANES, Projected, Read, Row};
+use super::batch::{Batch, CONSTANTS, LANES, Projected, Read, Shared, Source};
 use crate::linalg::real::Lanes32;
 
 /// A batch's rows as read, particle slot by slot: registers of x, y, z and inverse mass.
@@ -47,7 +47,7 @@ impl<const F: usize> Eight<F> {
     #[inline(always)]
     pub fn read<const K: usize>(
         self,
-        Indexed { rows, mask }: Indexed<&[Row]>,
+        rows: Shared<'_>,
         batch: &Batch<K, F>,
         lambda: &[[f64; LANES]; F],
     ) -> (Read<Lanes32<V3>, K, F>, Raw<K>) {
@@ -55,7 +55,7 @@ impl<const F: usize> Eight<F> {
         // Loops, not closures: a closure the compiler declines to inline would run without AVX2.
         let mut raw: Raw<K> = [[avx._mm256_setzero_ps(); 4]; K];
         for (raw, ids) in raw.iter_mut().zip(&batch.ids) {
-            *raw = gather(simd, rows, mask, ids);
+            *raw = gather(simd, rows, ids);
         }
         let zero = self.lanes(avx._mm256_setzero_ps());
         let (mut x, mut w) = ([[zero; 3]; K], [zero; K]);
@@ -84,7 +84,7 @@ impl<const F: usize> Eight<F> {
     #[inline(always)]
     pub fn write<const K: usize>(
         self,
-        Indexed { rows, mask }: Indexed<&mut [Row]>,
+        rows: Shared<'_>,
         batch: &Batch<K, F>,
         lambda: &mut [[f64; LANES]; F],
         raw: Raw<K>,
@@ -109,7 +109,7 @@ impl<const F: usize> Eight<F> {
         for ((ids, [sx, sy, sz]), [x, y, z, w]) in batch.ids.iter().zip(steps).zip(raw) {
             let moved =
                 [avx._mm256_add_ps(x, cast(sx.v)), avx._mm256_add_ps(y, cast(sy.v)), avx._mm256_add_ps(z, cast(sz.v))];
-            scatter(simd, rows, mask, ids, [moved[0], moved[1], moved[2], w]);
+            scatter(simd, rows, ids, [moved[0], moved[1], moved[2], w]);
         }
     }
 }
@@ -147,12 +147,12 @@ fn transpose(simd: V3, a: [__m256; 4]) -> [__m256; 4] {
 
 /// The rows `ids` as registers of x, y, z and inverse mass.
 #[inline(always)]
-pub fn gather(simd: V3, rows: &[Row], mask: usize, ids: &[u32; LANES]) -> [__m256; 4] {
+pub fn gather(simd: V3, rows: impl Source, ids: &[u32; LANES]) -> [__m256; 4] {
     let avx = simd.avx;
     // Lanes k and k + 4 side by side: x y z w | x y z w.
     let mut a = [avx._mm256_setzero_ps(); 4];
     for (k, a) in a.iter_mut().enumerate() {
-        let (low, high) = (cast(rows[ids[k] as usize & mask].0), cast(rows[ids[k + 4] as usize & mask].0));
+        let (low, high) = (cast(rows.row(ids[k])), cast(rows.row(ids[k + 4])));
         *a = avx._mm256_insertf128_ps::<1>(avx._mm256_castps128_ps256(low), high);
     }
     transpose(simd, a)
@@ -161,12 +161,12 @@ pub fn gather(simd: V3, rows: &[Row], mask: usize, ids: &[u32; LANES]) -> [__m25
 /// Store the lanes of registers of x, y, z and inverse mass as the rows `ids`. Lanes past a batch's
 /// count repeat its last lane, so they store the rows it stores, with the same values, after it.
 #[inline(always)]
-fn scatter(simd: V3, rows: &mut [Row], mask: usize, ids: &[u32; LANES], lanes: [__m256; 4]) {
+fn scatter(simd: V3, rows: Shared<'_>, ids: &[u32; LANES], lanes: [__m256; 4]) {
     let avx = simd.avx;
     // Lanes k and k + 4 of a[k]: x y z w | x y z w.
     let a = transpose(simd, lanes);
     for (k, &i) in ids.iter().enumerate() {
         let half = if k < 4 { avx._mm256_castps256_ps128(a[k]) } else { avx._mm256_extractf128_ps::<1>(a[k - 4]) };
-        rows[i as usize & mask].0 = cast(half);
+        rows.set(i, cast(half));
     }
 }

@@ -21,6 +21,8 @@
 //! is under the rounding of a row a few centimetres from the first particle, and what a flushed row
 //! is moved by comes back whole.
 
+use std::marker::PhantomData;
+
 use glam::DVec3;
 
 use crate::linalg::isa;
@@ -131,6 +133,62 @@ pub struct Indexed<R> {
     pub mask: usize,
 }
 
+/// Where the eight-lane kernels read rows from: `i & mask`, never out of bounds.
+pub trait Source: Copy {
+    /// The row of particle `i`.
+    fn row(self, i: u32) -> [f32; 4];
+}
+
+impl Source for Indexed<&[Row]> {
+    #[inline(always)]
+    fn row(self, i: u32) -> [f32; 4] {
+        self.rows[i as usize & self.mask].0
+    }
+}
+
+/// Rows that the batches of one colour read and move from two threads at once: a colour's lanes
+/// share no particle ([`Batches::separate`]), so each row is read and written by one thread only
+/// within the colour, and the threads are joined before the next colour. Made only by the sweeps,
+/// for the colours found separate; indices are masked to the rows' power-of-two length.
+#[derive(Clone, Copy)]
+pub(super) struct Shared<'a> {
+    rows: *mut Row,
+    mask: usize,
+    borrow: PhantomData<&'a mut [Row]>,
+}
+
+// SAFETY: see the type's documentation: within a colour no row is touched by two threads.
+#[allow(unsafe_code)]
+unsafe impl Send for Shared<'_> {}
+// SAFETY: as for `Send`.
+#[allow(unsafe_code)]
+unsafe impl Sync for Shared<'_> {}
+
+impl<'a> Shared<'a> {
+    /// The view of `rows`, borrowed for as long as the view lives.
+    pub fn new(rows: Indexed<&'a mut [Row]>) -> Self {
+        assert_eq!(rows.rows.len(), rows.mask + 1, "rows as many as a power of two");
+        Self { rows: rows.rows.as_mut_ptr(), mask: rows.mask, borrow: PhantomData }
+    }
+
+    /// Store `row` as particle `i`'s.
+    #[inline(always)]
+    #[allow(unsafe_code)]
+    pub fn set(self, i: u32, row: [f32; 4]) {
+        // SAFETY: masked into bounds; no other thread touches this row now (the type's documentation).
+        unsafe { (*self.rows.add(i as usize & self.mask)).0 = row }
+    }
+}
+
+impl Source for Shared<'_> {
+    #[inline(always)]
+    #[allow(unsafe_code)]
+    fn row(self, i: u32) -> [f32; 4] {
+        // SAFETY: as for `set`.
+        unsafe { (*self.rows.add(i as usize & self.mask)).0 }
+    }
+}
+
 /// Constants a batch keeps per lane (a rest length, a rest angle's cosine and sine).
 pub const CONSTANTS: usize = 3;
 
@@ -168,15 +226,23 @@ pub struct Batches<const K: usize, const F: usize> {
     pub batches: Vec<Batch<K, F>>,
     /// Where each colour's batches begin, and the end (batches of a colour are independent).
     pub colours: Vec<usize>,
+    /// Whether each colour's lanes are checked to share no particle (the colouring's last colour
+    /// takes what the others could not, [`super::model`], and may not be), so that its batches may
+    /// be projected on several threads at once.
+    pub separate: Vec<bool>,
 }
 
 impl<const K: usize, const F: usize> Batches<K, F> {
     /// `items` (ordered by colour) packed into batches that do not cross the colours (`colours`:
     /// where each begins, and the end).
     pub fn new<T: Packable<K, F>>(items: &[T], colours: &[usize]) -> Self {
-        let (mut batches, mut starts) = (Vec::new(), vec![0]);
+        let (mut batches, mut starts, mut separate) = (Vec::new(), vec![0], Vec::new());
+        let mut seen = std::collections::HashSet::new();
         for colour in colours.windows(2) {
-            for group in items[colour[0]..colour[1]].chunks(LANES) {
+            seen.clear();
+            let items = &items[colour[0]..colour[1]];
+            separate.push(items.iter().flat_map(|item| item.particles()).all(|i| seen.insert(i)));
+            for group in items.chunks(LANES) {
                 let lane = |k: usize| &group[k.min(group.len() - 1)];
                 let ids = std::array::from_fn(|j| std::array::from_fn(|k| index(lane(k).particles()[j])));
                 let constants = std::array::from_fn(|c| std::array::from_fn(|k| lane(k).constants()[c] as f32));
@@ -185,7 +251,7 @@ impl<const K: usize, const F: usize> Batches<K, F> {
             }
             starts.push(batches.len());
         }
-        Self { batches, colours: starts }
+        Self { batches, colours: starts, separate }
     }
 
     /// Zeroed multipliers for these batches.
@@ -267,6 +333,15 @@ mod tests {
             }
         }
         assert_eq!(seen, (0..21).collect::<Vec<_>>());
+    }
+
+    /// A colour is separate (its batches may be projected on several threads at once) only when no
+    /// two of its lanes share a particle.
+    #[test]
+    fn a_colour_is_separate_only_if_its_lanes_share_no_particle() {
+        let items = [Pair(0, 1, 1.0), Pair(2, 3, 1.0), Pair(4, 5, 1.0), Pair(5, 6, 1.0), Pair(7, 8, 1.0)];
+        let packed = Batches::new(&items, &[0, 2, 4, 5]);
+        assert_eq!(packed.separate, vec![true, false, true]);
     }
 
     /// Rows carry inverse masses; positions the sweeps did not move come back to the bit, wherever

@@ -498,17 +498,25 @@ impl Solver for Pbd {
         let start = Instant::now();
         self.update_masses();
         let h = self.settings.step / self.settings.substeps as f64;
-        for k in 1..=self.settings.substeps {
-            crate::solver::supersede::checkpoint();
-            let t = self.time + h * k as f64;
-            self.substep(h, t).map_err(|Flung { vertices }| {
-                let reason = format!(
-                    "{vertices} particles moved farther than ten times the cloth's size, or to a non-finite place, \
-                     in one substep"
-                );
-                SolverError::Diverged { step: self.steps + 1, time: t, reason }
-            })?;
-        }
+        // On a pool thread, so that the sweeps' joins hand their halves to another one directly; the
+        // substeps' checkpoints stop as this thread's run would.
+        let ticket = crate::solver::supersede::current();
+        crate::threads::in_pool(true, || {
+            crate::solver::supersede::carrying(ticket, || {
+                for k in 1..=self.settings.substeps {
+                    crate::solver::supersede::checkpoint();
+                    let t = self.time + h * k as f64;
+                    self.substep(h, t).map_err(|Flung { vertices }| {
+                        let reason = format!(
+                            "{vertices} particles moved farther than ten times the cloth's size, or to a non-finite \
+                         place, in one substep"
+                        );
+                        SolverError::Diverged { step: self.steps + 1, time: t, reason }
+                    })?;
+                }
+                Ok::<(), SolverError>(())
+            })
+        })?;
         self.time += self.settings.step;
         self.steps += 1;
         let (energy, strain) = self.energy_and_strain();

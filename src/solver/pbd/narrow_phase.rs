@@ -60,15 +60,6 @@ impl Near<'_> {
         flat
     }
 
-    /// Triangle `t`'s box grown by half its reach (the thickness and its side's margin): two that
-    /// overlap may hold a pair within reach, and no pair within reach lies in two that do not.
-    #[inline]
-    pub fn bounds(&self, t: usize) -> (DVec3, DVec3) {
-        let reach = self.thickness + self.side(&self.triangles[t]);
-        let (lo, hi) = bounds(&self.triangles[t].map(|i| self.x[i]));
-        (lo - 0.5 * reach, hi + 0.5 * reach)
-    }
-
     /// Add to `vertices` and `edges` the pairs that triangles `a` and `b` hand over (each vertex and
     /// edge through the triangle that owns it) closer than the thickness plus half their sides'
     /// margins, unless the triangles lie round a vertex whose fan is flat (no pair within reach).
@@ -117,4 +108,14 @@ impl Near<'_> {
             }
         }
     }
+}
+
+/// The box of `triangle` at `x`, grown by half its reach (the thickness and its side's margin, the
+/// largest of its vertices' `margins`): two that overlap may hold a pair within reach, and no pair
+/// within reach lies in two that do not.
+#[inline]
+pub fn triangle_box(x: &[DVec3], margins: &[f64], thickness: f64, triangle: [usize; 3]) -> (DVec3, DVec3) {
+    let reach = thickness + triangle.iter().map(|&i| margins[i]).fold(0.0, f64::max);
+    let (lo, hi) = bounds(&triangle.map(|i| x[i]));
+    (lo - 0.5 * reach, hi + 0.5 * reach)
 }

@@ -30,14 +30,14 @@ use std::marker::PhantomData;
 
 use glam::DVec3;
 
-use super::batch::{Batches, Indexed, LANES, Projected, Read, Row, Rows};
+use super::batch::{Batch, Batches, Indexed, LANES, Projected, Read, Row, Rows, Shared};
 use super::model::{Edge, Model, StretchBend};
 use crate::energy::constraints;
 use crate::linalg::real::{self, Lanes32, Real, V3};
 
 /// How a constraint's multiplier changes, given `C`, `Σ w|∇C|²`, its scaled compliance `α̃` and the
 /// multiplier `λ` accumulated so far.
-pub trait Rule: Copy {
+pub trait Rule: Copy + Send + Sync {
     /// `Δλ`.
     fn delta<N: Real>(&self, c: N, denominator: N, compliance: N, lambda: N) -> N;
 }
@@ -156,7 +156,7 @@ fn hinges<R: Rule>(hinges: &Batches<4, 2>, sweep: Sweep<'_, R, 2>) {
 }
 
 /// Which code runs a sweep.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Path {
     /// Eight lanes at once where the CPU has AVX2, else one at a time.
     Fastest,
@@ -170,17 +170,47 @@ fn run<T: Lane<K, F>, R: Rule, const K: usize, const F: usize>(
     sweep: Sweep<'_, R, F>,
     path: Path,
 ) {
-    let kernel = Constraints::<T, R, K, F> { batches, sweep, kind: PhantomData };
     #[cfg(target_arch = "x86_64")]
-    let kernel = match path {
-        Path::Fastest => match crate::linalg::isa::eight(Avx2(kernel)) {
-            Ok(()) => return,
-            Err(Avx2(kernel)) => kernel,
-        },
-        Path::Portable => kernel,
-    };
+    if path == Path::Fastest && pulp::x86::V3::try_new().is_some() {
+        return eight_lanes::<T, R, K, F>(batches, sweep);
+    }
     let _ = path;
-    kernel.one_by_one()
+    Constraints::<T, R, K, F> { batches, sweep, kind: PhantomData }.one_by_one()
+}
+
+/// A colour is split into as many pieces as there are threads, each of at least this many batches
+/// (eight lanes each); a smaller colour is one piece.
+const SPLIT: usize = 32;
+
+/// The sweep eight lanes at a time (the CPU has AVX2), colour after colour, each large colour whose
+/// lanes share no particle in pieces on the pool's threads at once ([`crate::threads::phases`]).
+/// Lanes of a colour are independent, so the rows and multipliers come out the same to the bit on one
+/// thread and on several.
+#[cfg(target_arch = "x86_64")]
+fn eight_lanes<T: Lane<K, F>, R: Rule, const K: usize, const F: usize>(
+    batches: &Batches<K, F>,
+    Sweep { rows, mut lambda, first, last, compliance, rule }: Sweep<'_, R, F>,
+) {
+    let rows = Shared::new(rows);
+    let threads = crate::threads::threads();
+    let mut pieces = Vec::new();
+    for (c, (colour, &separate)) in batches.colours.windows(2).zip(&batches.separate).enumerate() {
+        let (here, rest) = std::mem::take(&mut lambda).split_at_mut(colour[1] - colour[0]);
+        lambda = rest;
+        let count = if separate { (here.len() / SPLIT).clamp(1, threads) } else { 1 };
+        let mut start = colour[0];
+        for piece in here.chunks_mut(here.len().div_ceil(count).max(1)) {
+            let length = piece.len();
+            pieces.push((c, (start, piece)));
+            start += length;
+        }
+    }
+    crate::threads::phases(pieces, |(start, lambda): (usize, &mut [[[f64; LANES]; F]])| {
+        let batches = &batches.batches[start..start + lambda.len()];
+        let kernel = Avx2::<T, R, K, F> { batches, lambda, rows, compliance, first, last, rule, kind: PhantomData };
+        // The CPU has AVX2 (checked by the caller), so the kernel runs and is not handed back.
+        let _ = crate::linalg::isa::eight(kernel);
+    });
 }
 
 /// A lane's constraints over `K` particles, as the sweeps project them.
@@ -300,9 +330,19 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> Constraints<'_, T, 
         }
     }
 }
-/// The eight-lane sweep, as a kernel for [`crate::linalg::isa::eight`].
+/// The eight-lane sweep over some batches of one colour and their multipliers, as a kernel for
+/// [`crate::linalg::isa::eight`].
 #[cfg(target_arch = "x86_64")]
-struct Avx2<'a, T, R, const K: usize, const F: usize>(Constraints<'a, T, R, K, F>);
+struct Avx2<'a, T, R, const K: usize, const F: usize> {
+    batches: &'a [Batch<K, F>],
+    lambda: &'a mut [[[f64; LANES]; F]],
+    rows: Shared<'a>,
+    compliance: [f64; F],
+    first: bool,
+    last: bool,
+    rule: [R; F],
+    kind: PhantomData<fn() -> T>,
+}
 
 #[cfg(target_arch = "x86_64")]
 impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> crate::linalg::isa::Eight for Avx2<'_, T, R, K, F> {
@@ -310,31 +350,23 @@ impl<T: Lane<K, F>, R: Rule, const K: usize, const F: usize> crate::linalg::isa:
 
     #[inline(always)]
     fn run(self, simd: pulp::x86::V3) {
-        let Avx2(kernel) = self;
-        let Sweep { rows: Indexed { rows, mask }, lambda, first, last, compliance, rule } = kernel.sweep;
-        // Sliced to the mask, so that indices masked by it need no bounds checks.
-        let rows = &mut rows[..=mask];
+        let Avx2 { batches, lambda, rows, compliance, first, last, rule, .. } = self;
         let eight = super::avx2_lanes::Eight::new(simd, compliance, (first, last));
-        let batches = &kernel.batches.batches;
-        // Two batches of a colour at a time, read before either is projected: their arithmetic is
-        // independent, and the processor overlaps the two chains of long-latency roots and divisions.
-        for colour in kernel.batches.colours.windows(2) {
-            let mut b = colour[0];
-            while b + 1 < colour[1] {
-                let read = Indexed { rows: &*rows, mask };
-                let ((first, first_raw), (second, second_raw)) =
-                    (eight.read(read, &batches[b], &lambda[b]), eight.read(read, &batches[b + 1], &lambda[b + 1]));
-                let (first, second) = (T::project(&first, rule), T::project(&second, rule));
-                eight.write(Indexed { rows: &mut *rows, mask }, &batches[b], &mut lambda[b], first_raw, first);
-                let write = Indexed { rows: &mut *rows, mask };
-                eight.write(write, &batches[b + 1], &mut lambda[b + 1], second_raw, second);
-                b += 2;
-            }
-            if b < colour[1] {
-                let (read, raw) = eight.read(Indexed { rows: &*rows, mask }, &batches[b], &lambda[b]);
-                let projected = T::project(&read, rule);
-                eight.write(Indexed { rows: &mut *rows, mask }, &batches[b], &mut lambda[b], raw, projected);
-            }
+        // Two batches at a time, read before either is projected: their arithmetic is independent,
+        // and the processor overlaps the two chains of long-latency roots and divisions.
+        let mut b = 0;
+        while b + 1 < batches.len() {
+            let ((first, first_raw), (second, second_raw)) =
+                (eight.read(rows, &batches[b], &lambda[b]), eight.read(rows, &batches[b + 1], &lambda[b + 1]));
+            let (first, second) = (T::project(&first, rule), T::project(&second, rule));
+            eight.write(rows, &batches[b], &mut lambda[b], first_raw, first);
+            eight.write(rows, &batches[b + 1], &mut lambda[b + 1], second_raw, second);
+            b += 2;
+        }
+        if b < batches.len() {
+            let (read, raw) = eight.read(rows, &batches[b], &lambda[b]);
+            let projected = T::project(&read, rule);
+            eight.write(rows, &batches[b], &mut lambda[b], raw, projected);
         }
     }
 }

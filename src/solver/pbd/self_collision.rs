@@ -80,7 +80,7 @@ use glam::DVec3;
 #[cfg(any(doc, test))]
 use super::batch::Rows;
 use super::batch::{Indexed, Row};
-use super::narrow_phase::Near;
+use super::narrow_phase::{self, Near};
 use super::self_contact::{self, EdgePair, Pair, over};
 use super::turned::Watch;
 use crate::collision::bvh::{Leaf, Tilt, TriangleTree};
@@ -332,10 +332,11 @@ impl SelfCollision {
         self.flat_fans.resize(x.len(), Cell::new(None));
         // The hierarchy is taken out while the pairs' judge borrows the rest.
         let mut tree = std::mem::take(&mut self.tree);
-        let (near, normals) = (self.near(triangles, thickness), &self.normals);
+        let near = self.near(triangles, thickness);
+        let (x, margins, normals, reach) = (&self.anchors, &self.margins, &self.normals, near.flat_reach);
         tree.refit(|t| {
-            let (lo, hi) = near.bounds(t);
-            Leaf { lo, hi, normal: normals[t], reach: near.flat_reach }
+            let (lo, hi) = narrow_phase::triangle_box(x, margins, thickness, triangles[t]);
+            Leaf { lo, hi, normal: normals[t], reach }
         });
         let (mut vertices, mut edges) = (Vec::new(), Vec::new());
         tree.overlapping_pairs(near.tilt, |a, b| near.pairs(a, b, &mut vertices, &mut edges));

@@ -9,7 +9,7 @@ use super::batch::{Batch, Batches, CONSTANTS, Indexed, LANES, Packable, Row};
 use crate::linalg::real::{self, Lanes32, Real, V3};
 
 /// A test of a triangle at `R` sets of positions.
-pub trait Test<const R: usize>: Copy {
+pub trait Test<const R: usize>: Copy + Send + Sync {
     /// Positive where the triangle with corners `c` (at each set of positions) and the constants of its
     /// lane passes; else zero or less (or NaN).
     fn margin<N: Real>(&self, c: [[V3<N>; 3]; R], constants: [N; CONSTANTS]) -> N;
@@ -42,6 +42,10 @@ pub fn pack(triangles: impl IntoIterator<Item = ([u32; 3], [f64; CONSTANTS])>) -
     Batches::new(&all, &[0, all.len()]).batches
 }
 
+/// Scans of at least twice this many batches are made in two halves at once where there are several
+/// threads ([`crate::threads::join`]); the halves' lists, joined in order, are the list of one scan.
+const SPLIT: usize = 128;
+
 /// Into `failed` (cleared first), in order, the triangles of `batches` that fail `test` at `rows`:
 /// eight at a time if `fastest` and the CPU has AVX2, else one at a time.
 pub fn failing<T: Test<R>, const R: usize>(
@@ -52,9 +56,33 @@ pub fn failing<T: Test<R>, const R: usize>(
     failed: &mut Vec<u32>,
 ) {
     failed.clear();
+    let half = batches.len() / 2;
+    if crate::threads::threads() > 1 && half >= SPLIT {
+        let (first, second) = batches.split_at(half);
+        let mut more = Vec::new();
+        crate::threads::join(
+            || scan(first, 0, rows, test, fastest, failed),
+            || scan(second, half, rows, test, fastest, &mut more),
+        );
+        failed.extend(more);
+    } else {
+        scan(batches, 0, rows, test, fastest, failed);
+    }
+}
+
+/// Onto `failed`, in order, the triangles of `batches` (batch `b` of them is batch `first + b` of the
+/// scan) that fail `test` at `rows`.
+fn scan<T: Test<R>, const R: usize>(
+    batches: &Triangles,
+    first: usize,
+    rows: [Indexed<&[Row]>; R],
+    test: T,
+    fastest: bool,
+    failed: &mut Vec<u32>,
+) {
     #[cfg(target_arch = "x86_64")]
     let failed = if fastest {
-        match crate::linalg::isa::eight(Eight { test, batches, rows, failed }) {
+        match crate::linalg::isa::eight(Eight { test, batches, first, rows, failed }) {
             Ok(()) => return,
             Err(kernel) => kernel.failed,
         }
@@ -73,7 +101,7 @@ pub fn failing<T: Test<R>, const R: usize>(
             margin <= 0.0 || margin.is_nan()
         });
         let mask = fails.fold(0, |mask, k| mask | 1 << k);
-        failed.extend(lanes(b, batch, mask));
+        failed.extend(lanes(first + b, batch, mask));
     }
 }
 
@@ -109,6 +137,8 @@ fn norm1<N: Real>(v: V3<N>) -> N {
 struct Eight<'a, T, const R: usize> {
     test: T,
     batches: &'a Triangles,
+    /// Where `batches` begin among the scan's.
+    first: usize,
     rows: [Indexed<&'a [Row]>; R],
     failed: &'a mut Vec<u32>,
 }
@@ -128,7 +158,7 @@ impl<T: Test<R>, const R: usize> crate::linalg::isa::Eight for Eight<'_, T, R> {
             let (mut c, mut constants) = ([[[zero; 3]; 3]; R], [zero; CONSTANTS]);
             for (j, ids) in b.ids.iter().enumerate() {
                 for (c, rows) in c.iter_mut().zip(&rows) {
-                    let [x, y, z, _] = super::avx2_lanes::gather(simd, rows.rows, rows.mask, ids);
+                    let [x, y, z, _] = super::avx2_lanes::gather(simd, *rows, ids);
                     c[j] = [Lanes32 { simd, v: cast(x) }, Lanes32 { simd, v: cast(y) }, Lanes32 { simd, v: cast(z) }];
                 }
             }
@@ -138,7 +168,7 @@ impl<T: Test<R>, const R: usize> crate::linalg::isa::Eight for Eight<'_, T, R> {
             let m = self.test.margin(c, constants);
             let passed = simd.avx._mm256_movemask_ps(cast(m.constant(0.0).less(m)));
             if passed != 0xff {
-                self.failed.extend(lanes(k, b, !passed & 0xff));
+                self.failed.extend(lanes(self.first + k, b, !passed & 0xff));
             }
         }
     }
