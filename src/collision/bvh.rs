@@ -346,7 +346,7 @@ impl TriangleTree {
     }
 
     /// Refit every node from its triangles as they are now (`leaf(triangle)`): the root's two
-    /// subtrees at once where there are several threads and the tree is large ([`REFIT_SPLIT`]; they
+    /// subtrees at once where there are several threads and the tree is large (`REFIT_SPLIT` nodes; they
     /// are ranges of nodes, written apart), then the root. Each node's fit is the same either way.
     pub fn refit(&mut self, leaf: impl Fn(usize) -> Leaf + Sync) {
         let split = match self.nodes.first() {

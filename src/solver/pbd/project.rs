@@ -10,7 +10,10 @@
 //! together, `BENCHMARKS.md`, *Design measurements quoted from module docs*). Without bending every
 //! edge goes on its own. Lanes come in colours (no
 //! two of a colour share a particle, [`super::model`]), so the lanes of a colour are independent:
-//! projecting them one after another or all at once gives the same positions.
+//! projecting them one after another or all at once gives the same positions. A large colour is
+//! therefore cut into as many pieces as there are threads, which project at once, reading and moving
+//! the shared rows ([`super::batch::Shared`]; only colours whose lanes are checked to share no
+//! particle, [`Batches::separate`]), so a sweep gives the same bits on one thread and on several.
 //!
 //! The sweeps take them eight at a time where the CPU has AVX2, in single precision ([`Lanes32`], with
 //! fused multiply-adds), from batches packed once ([`super::batch`]), moving the particles' rows —
