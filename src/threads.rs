@@ -95,6 +95,29 @@ pub fn join_sum(a: impl FnOnce() -> Vec<f64> + Send, b: impl FnOnce() -> Vec<f64
     one
 }
 
+/// `f(first, part)` over the two halves of `items` at once when there are several threads and each
+/// half has at least `least` items (`first`: where `part` begins in `items`), else over the whole.
+pub fn halves<T: Send>(items: &mut [T], least: usize, f: impl Fn(usize, &mut [T]) + Sync) {
+    let half = items.len() / 2;
+    if threads() > 1 && half >= least.max(1) {
+        let (first, second) = items.split_at_mut(half);
+        join(|| f(0, first), || f(half, second));
+    } else {
+        f(0, items);
+    }
+}
+
+/// Whether any of `0..n` passes `test`, its two halves tested at once as [`halves`] does.
+pub fn any(n: usize, least: usize, test: impl Fn(usize) -> bool + Sync) -> bool {
+    let half = n / 2;
+    if threads() > 1 && half >= least.max(1) {
+        let (a, b) = join(|| (0..half).any(&test), || (half..n).any(&test));
+        a || b
+    } else {
+        (0..n).any(test)
+    }
+}
+
 /// Run `tasks`, each with its phase (phases ascending), on the pool's threads at once: the tasks of a
 /// phase in any order and on any thread, each once, and a phase's only after every task of the
 /// phase before it has ended (its writes seen). Each thread takes the next task in order and, if the

@@ -278,19 +278,27 @@ mod tests {
     /// (diagonally dominant, so positive definite; in three dimensions the factor fills enough for
     /// faer to store it by supernodes).
     fn grid(side: usize) -> faer::sparse::SparseColMat<usize, f64> {
-        let id = |i: usize, j: usize, k: usize| (i * side + j) * side + k;
+        blocks(side, 1)
+    }
+
+    /// `count` unconnected copies of [`grid`] on the diagonal, the unknowns of one after another.
+    fn blocks(side: usize, count: usize) -> faer::sparse::SparseColMat<usize, f64> {
+        let n = side.pow(3);
         let mut entries = Vec::new();
-        for (i, j, k) in (0..side).flat_map(|i| (0..side).flat_map(move |j| (0..side).map(move |k| (i, j, k)))) {
-            let here = id(i, j, k);
-            entries.push(faer::sparse::Triplet::new(here, here, 6.01 + 0.001 * (i + 2 * j + 3 * k) as f64));
-            for (step, weight) in [((1, 0, 0), 1.0), ((0, 1, 0), 0.9 + 0.002 * i as f64), ((0, 0, 1), 0.8)] {
-                let (a, b, c) = (i + step.0, j + step.1, k + step.2);
-                if a < side && b < side && c < side {
-                    entries.push(faer::sparse::Triplet::new(here, id(a, b, c), -weight));
+        for block in 0..count {
+            let id = |i: usize, j: usize, k: usize| block * n + (i * side + j) * side + k;
+            for (i, j, k) in (0..side).flat_map(|i| (0..side).flat_map(move |j| (0..side).map(move |k| (i, j, k)))) {
+                let here = id(i, j, k);
+                entries.push(faer::sparse::Triplet::new(here, here, 6.01 + 0.001 * (i + 2 * j + 3 * k) as f64));
+                for (step, weight) in [((1, 0, 0), 1.0), ((0, 1, 0), 0.9 + 0.002 * i as f64), ((0, 0, 1), 0.8)] {
+                    let (a, b, c) = (i + step.0, j + step.1, k + step.2);
+                    if a < side && b < side && c < side {
+                        entries.push(faer::sparse::Triplet::new(here, id(a, b, c), -weight));
+                    }
                 }
             }
         }
-        faer::sparse::SparseColMat::try_new_from_triplets(side.pow(3), side.pow(3), &entries).unwrap()
+        faer::sparse::SparseColMat::try_new_from_triplets(count * n, count * n, &entries).unwrap()
     }
 
     /// Solve `a` with `chol` for 1 to 9 right sides: as faer does (to round-off), and each column the
@@ -343,5 +351,18 @@ mod tests {
         // The plain natural order has no halves (a chain).
         let plain = SparseCholesky::with_order(a.as_ref(), &(0..side.pow(3)).collect::<Vec<_>>()).unwrap();
         assert_eq!(plain.split, None);
+    }
+
+    #[test]
+    fn a_factor_of_two_unconnected_blocks_has_them_as_halves_and_no_top() {
+        // Two roots: each block's chain is a half, and nothing takes from both.
+        let (side, n) = (12, 12usize.pow(3));
+        let a = blocks(side, 2);
+        let mut chol = SparseCholesky::with_order(a.as_ref(), &(0..2 * n).collect::<Vec<_>>()).unwrap();
+        chol.factor(a.as_ref()).unwrap();
+        let split = chol.split.clone().expect("two blocks are two halves");
+        assert_eq!(split.columns, [n, 2 * n], "{split:?}");
+        assert!(split.supernodes[2].is_empty(), "no top: {split:?}");
+        agrees_with_faer(&chol, 2 * n);
     }
 }

@@ -323,10 +323,14 @@ impl SelfCollision {
     /// (a side's margin: the largest of its vertices'); pairs found again keep their sides.
     fn search(&mut self, x: &[DVec3], mean: DVec3, triangles: &[[usize; 3]], thickness: f64) {
         self.searches += 1;
-        self.anchors.clear();
-        self.anchors.extend(x.iter().map(|q| *q - mean));
-        self.normals.clear();
-        self.normals.extend(triangles.iter().map(|&t| unit_normal(t, x)));
+        self.anchors.resize(x.len(), DVec3::ZERO);
+        crate::threads::halves(&mut self.anchors, SPLIT, |first, anchors| {
+            anchors.iter_mut().zip(&x[first..]).for_each(|(a, q)| *a = *q - mean);
+        });
+        self.normals.resize(triangles.len(), DVec3::ZERO);
+        crate::threads::halves(&mut self.normals, SPLIT, |first, normals| {
+            normals.iter_mut().zip(&triangles[first..]).for_each(|(n, &t)| *n = unit_normal(t, x));
+        });
         self.watched.set_all(&self.normals);
         self.flat_fans.clear();
         self.flat_fans.resize(x.len(), Cell::new(None));
@@ -447,10 +451,11 @@ impl SelfCollision {
     /// Whether a vertex has moved from its anchor at `x` or `p`, relative to the cloth's mean
     /// position there (`cx`, `cp`), by half its margin or more.
     fn drifted(&self, [x, p]: [&[DVec3]; 2], [cx, cp]: [DVec3; 2]) -> bool {
-        (0..x.len()).any(|i| {
-            let a = self.anchors[i];
+        let (anchors, margins) = (&self.anchors, &self.margins);
+        crate::threads::any(x.len(), SPLIT, |i| {
+            let a = anchors[i];
             let drift2 = (x[i] - cx - a).length_squared().max((p[i] - cp - a).length_squared());
-            4.0 * drift2 >= self.margins[i] * self.margins[i]
+            4.0 * drift2 >= margins[i] * margins[i]
         })
     }
 
@@ -459,6 +464,10 @@ impl SelfCollision {
         self.active.len() + self.active_edges.len()
     }
 }
+
+/// Passes over the vertices or triangles (the search's anchors and normals, the drift check) go in
+/// two halves at once where there are several threads and each half has at least this many.
+const SPLIT: usize = 2048;
 
 /// The unit normal of `triangle` at `x`, along `(c₁ − c₀) × (c₂ − c₀)` (zero if degenerate).
 #[inline(always)]
