@@ -21,7 +21,7 @@
 //! position-based sweep's colour share no particle, so both kinds of step agree to the bit (tested
 //! there too).
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock, PoisonError};
 
 use faer::Par;
@@ -80,6 +80,39 @@ pub fn par() -> Par {
 /// the pool (a modal analysis in the background) runs first: `f` waits for a pool thread to be free.
 pub fn in_pool<R: Send>(joins: bool, f: impl FnOnce() -> R + Send) -> R {
     if joins && threads() > 1 && rayon::current_thread_index().is_none() { rayon::scope(|_| f()) } else { f() }
+}
+
+/// `f()` on a pool thread with the pool's other threads kept awake until it returns: each waits for
+/// the halves `f`'s joins hand over by taking work as it comes (`rayon::yield_now`), and gives its
+/// core to other processes while there is none. A join in a step of many short parallel stretches
+/// (a position-based substep's scans, search and sweeps) then finds a thread at hand instead of waking
+/// one, which costs about as much as the shorter stretches. On one thread, `f()` here.
+pub fn awake<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    if threads() == 1 {
+        return f();
+    }
+    let done = AtomicBool::new(false);
+    // Set however `f` ends (a panic, or a superseded run's stop), so that the keepers let the scope end.
+    struct Done<'a>(&'a AtomicBool);
+    impl Drop for Done<'_> {
+        fn drop(&mut self) {
+            self.0.store(true, Ordering::Release);
+        }
+    }
+    let keep = || {
+        while !done.load(Ordering::Acquire) {
+            if rayon::yield_now() != Some(rayon::Yield::Executed) {
+                std::thread::yield_now();
+            }
+        }
+    };
+    rayon::scope(|s| {
+        for _ in 1..threads() {
+            s.spawn(|_| keep());
+        }
+        let _done = Done(&done);
+        f()
+    })
 }
 
 /// `(a(), b())`, at once on two pool threads when there are several (`rayon::join`), else in turn.
@@ -215,6 +248,17 @@ mod tests {
         ks.sort_unstable();
         assert_eq!(ks, (0..10).collect::<Vec<_>>(), "each task once");
         assert!(log.windows(2).all(|w| w[0].0 <= w[1].0), "phases in order: {log:?}");
+    }
+
+    /// `awake` gives back what its work returns, and a panic in the work reaches the caller instead
+    /// of leaving the kept threads waiting.
+    #[test]
+    fn work_kept_awake_returns_and_panics_through() {
+        let (a, b) = awake(|| join(|| 20, || 22));
+        assert_eq!(a + b, 42);
+        let caught = std::panic::catch_unwind(|| awake(|| -> u32 { panic!("in the work") }));
+        assert!(caught.is_err());
+        assert_eq!(awake(|| 7), 7, "the pool still works after the panic");
     }
 
     #[test]

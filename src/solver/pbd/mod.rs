@@ -498,10 +498,11 @@ impl Solver for Pbd {
         let start = Instant::now();
         self.update_masses();
         let h = self.settings.step / self.settings.substeps as f64;
-        // On a pool thread, so that the sweeps' joins hand their halves to another one directly; the
-        // substeps' checkpoints stop as this thread's run would.
+        // On a pool thread with the others awake, so that the joins of the scans, the search and the
+        // sweeps hand their halves to another one at once; the substeps' checkpoints stop as this
+        // thread's run would.
         let ticket = crate::solver::supersede::current();
-        crate::threads::in_pool(true, || {
+        crate::threads::awake(|| {
             crate::solver::supersede::carrying(ticket, || {
                 for k in 1..=self.settings.substeps {
                     crate::solver::supersede::checkpoint();
