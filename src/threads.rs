@@ -5,8 +5,8 @@
 //! which a sparse solve runs the two halves of its factor's elimination tree at once, or splits its
 //! passes over the factor when it has no halves (the modal analysis's block solves,
 //! [`crate::linalg::SparseCholesky::solve_many`]), `mwts-rs`'s step runs
-//! the two halves of its triangle pass and of its reconstruction solve ([`join`], inside the pool:
-//! [`in_pool`]), `mwts`'s and `lma`'s the two halves of a large vertex pass, `pbd`'s and `xpbd`'s
+//! the two halves of its triangle pass and of its reconstruction solve ([`join`], inside the pool with
+//! its threads awake: [`awake`]), `mwts`'s and `lma`'s the two halves of a large vertex pass, `pbd`'s and `xpbd`'s
 //! step (on a pool thread) its sweeps' large colours in pieces ([`phases`]: one start of the threads
 //! for all of a sweep's colours, each thread taking the next piece, a colour's once the last one's
 //! have ended), its triangle scans in two halves and its self-collision hierarchy's refit in two
@@ -73,22 +73,16 @@ pub fn par() -> Par {
     }
 }
 
-/// Run `f` on one of the pool's threads when there are several and `f` joins (`joins`), else
-/// here, so that the joins inside it hand their second half to another pool thread directly. A join
-/// called from outside the pool instead wakes a pool thread for the whole join and sleeps until it
-/// is done: on two cores, one wake-up more per join, and three threads on two cores. Work already in
-/// the pool (a modal analysis in the background) runs first: `f` waits for a pool thread to be free.
-pub fn in_pool<R: Send>(joins: bool, f: impl FnOnce() -> R + Send) -> R {
-    if joins && threads() > 1 && rayon::current_thread_index().is_none() { rayon::scope(|_| f()) } else { f() }
-}
-
-/// `f()` on a pool thread with the pool's other threads kept awake until it returns: each waits for
-/// the halves `f`'s joins hand over by taking work as it comes (`rayon::yield_now`), and gives its
-/// core to other processes while there is none. A join in a step of many short parallel stretches
-/// (a position-based substep's scans, search and sweeps) then finds a thread at hand instead of waking
-/// one, which costs about as much as the shorter stretches. On one thread, `f()` here.
-pub fn awake<R: Send>(f: impl FnOnce() -> R + Send) -> R {
-    if threads() == 1 {
+/// `f()` on a pool thread, when there are several and `f` joins (`joins`), with the pool's other
+/// threads kept awake until it returns; else `f()` here. Each kept thread waits for the halves `f`'s
+/// joins hand over by taking work as it comes (`rayon::yield_now`), and gives its core to other
+/// processes while there is none. A join called from outside the pool would instead wake a pool
+/// thread for the whole join and sleep until it is done, and a pool thread asleep between two joins
+/// costs about as much to wake as the shorter of these stretches do (a position-based substep's
+/// scans, search and sweeps; `mwts-rs`'s triangle pass and solve). Work already in the pool (a
+/// modal analysis in the background) runs first: `f` waits for a pool thread to be free.
+pub fn awake<R: Send>(joins: bool, f: impl FnOnce() -> R + Send) -> R {
+    if !joins || threads() == 1 {
         return f();
     }
     let done = AtomicBool::new(false);
@@ -254,11 +248,11 @@ mod tests {
     /// of leaving the kept threads waiting.
     #[test]
     fn work_kept_awake_returns_and_panics_through() {
-        let (a, b) = awake(|| join(|| 20, || 22));
+        let (a, b) = awake(true, || join(|| 20, || 22));
         assert_eq!(a + b, 42);
-        let caught = std::panic::catch_unwind(|| awake(|| -> u32 { panic!("in the work") }));
+        let caught = std::panic::catch_unwind(|| awake(true, || -> u32 { panic!("in the work") }));
         assert!(caught.is_err());
-        assert_eq!(awake(|| 7), 7, "the pool still works after the panic");
+        assert_eq!(awake(true, || 7), 7, "the pool still works after the panic");
     }
 
     #[test]

@@ -61,6 +61,11 @@ use crate::solver::wind::Wind;
 use crate::solver::{DragKind, DragSet, ParamValue, Solver, SolverError, StepStats, check_finite};
 use crate::solver::{Footprint, Method};
 
+/// Cloths of at least this many triangles step with the pool's threads kept awake
+/// ([`crate::threads::awake`]): about where their triangle scans and their sweeps' colours start to
+/// run in halves (a smaller cloth would keep a thread spinning for nothing).
+const PARALLEL_TRIANGLES: usize = 2048;
+
 /// A self-collision search over `model`'s cloth at rest, with nothing found yet.
 fn fresh_self_collision(model: &Model) -> SelfCollision {
     let edges = model.edges.iter().map(|e| e.v).collect();
@@ -502,7 +507,7 @@ impl Solver for Pbd {
         // sweeps hand their halves to another one at once; the substeps' checkpoints stop as this
         // thread's run would.
         let ticket = crate::solver::supersede::current();
-        crate::threads::awake(|| {
+        crate::threads::awake(self.model.triangles.len() >= PARALLEL_TRIANGLES, || {
             crate::solver::supersede::carrying(ticket, || {
                 for k in 1..=self.settings.substeps {
                     crate::solver::supersede::checkpoint();
