@@ -196,11 +196,12 @@ fn eight_lanes<T: Lane<K, F>, R: Rule, const K: usize, const F: usize>(
 ) {
     let rows = Shared::new(rows);
     let threads = crate::threads::threads();
-    let mut pieces = Vec::new();
+    let (mut pieces, mut split) = (Vec::new(), false);
     for (c, (colour, &separate)) in batches.colours.windows(2).zip(&batches.separate).enumerate() {
         let (here, rest) = std::mem::take(&mut lambda).split_at_mut(colour[1] - colour[0]);
         lambda = rest;
         let count = if separate { (here.len() / SPLIT).clamp(1, threads) } else { 1 };
+        split |= count > 1;
         let mut start = colour[0];
         for piece in here.chunks_mut(here.len().div_ceil(count).max(1)) {
             let length = piece.len();
@@ -208,12 +209,19 @@ fn eight_lanes<T: Lane<K, F>, R: Rule, const K: usize, const F: usize>(
             start += length;
         }
     }
-    crate::threads::phases(pieces, |(start, lambda): (usize, &mut [[[f64; LANES]; F]])| {
+    let project = |(start, lambda): (usize, &mut [[[f64; LANES]; F]])| {
         let batches = &batches.batches[start..start + lambda.len()];
         let kernel = Avx2::<T, R, K, F> { batches, lambda, rows, compliance, first, last, rule, kind: PhantomData };
         // The CPU has AVX2 (checked by the caller), so the kernel runs and is not handed back.
         let _ = crate::linalg::isa::eight(kernel);
-    });
+    };
+    // No colour in pieces: here, in order (on two threads the colours would only take turns, each
+    // moving the rows to the other's core).
+    if split {
+        crate::threads::phases(pieces, project);
+    } else {
+        pieces.into_iter().for_each(|(_, piece)| project(piece));
+    }
 }
 
 /// A lane's constraints over `K` particles, as the sweeps project them.
