@@ -42,11 +42,6 @@ pub struct Near<'a> {
 }
 
 impl Near<'_> {
-    /// The margin of a side made of these vertices: the largest of theirs.
-    fn side(&self, ids: &[usize]) -> f64 {
-        ids.iter().map(|&i| self.margins[i]).fold(0.0, f64::max)
-    }
-
     /// Whether vertex `v`'s fan is flat, judged the first time it is asked after the search (most fans
     /// lie within patches the hierarchy skips, and are never asked).
     fn fan_flat(&self, v: usize) -> bool {
@@ -73,7 +68,7 @@ impl Near<'_> {
             let (ts, tt) = (triangles[s as usize], triangles[t as usize]);
             let corners = tt.map(|i| x[i]);
             let (lo, hi) = bounds(&corners);
-            let mt = self.side(&tt);
+            let mt = side(self.margins, &tt);
             for &v in ts.iter().filter(|&&v| self.vertex_owner[v] == s && !tt.contains(&v)) {
                 let reach = thickness + 0.5 * (self.margins[v] + mt);
                 // A vertex within reach of the triangle is within reach of its box.
@@ -94,7 +89,7 @@ impl Near<'_> {
                 if ff.contains(&ee[0]) || ff.contains(&ee[1]) {
                     continue;
                 }
-                let reach = thickness + 0.5 * (self.side(&ee) + self.side(&ff));
+                let reach = thickness + 0.5 * (side(self.margins, &ee) + side(self.margins, &ff));
                 let (i, j) = (ee.map(|k| x[k]), ff.map(|k| x[k]));
                 // Edges within reach of each other have boxes within reach.
                 if i[0].min(i[1]).cmpgt(j[0].max(j[1]) + reach).any()
@@ -110,12 +105,17 @@ impl Near<'_> {
     }
 }
 
+/// The margin of a side made of vertices `ids`: the largest of their `margins`.
+fn side(margins: &[f64], ids: &[usize]) -> f64 {
+    ids.iter().map(|&i| margins[i]).fold(0.0, f64::max)
+}
+
 /// The box of `triangle` at `x`, grown by half its reach (the thickness and its side's margin, the
 /// largest of its vertices' `margins`): two that overlap may hold a pair within reach, and no pair
 /// within reach lies in two that do not.
 #[inline]
 pub fn triangle_box(x: &[DVec3], margins: &[f64], thickness: f64, triangle: [usize; 3]) -> (DVec3, DVec3) {
-    let reach = thickness + triangle.iter().map(|&i| margins[i]).fold(0.0, f64::max);
+    let reach = thickness + side(margins, &triangle);
     let (lo, hi) = bounds(&triangle.map(|i| x[i]));
     (lo - 0.5 * reach, hi + 0.5 * reach)
 }
