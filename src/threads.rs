@@ -80,9 +80,7 @@ pub fn par() -> Par {
 /// thread for the whole join and sleep until it is done, and a pool thread asleep between two joins
 /// costs about as much to wake as the shorter of these stretches do (a position-based substep's
 /// scans, search and sweeps; `mwts-rs`'s triangle pass and solve). Work already in the pool (a
-/// modal analysis in the background) runs first: `f` waits for a pool thread to be free. `f` runs
-/// with the ticket of the run that calls it ([`crate::solver::supersede::carrying`]), so its
-/// checkpoints stop a superseded run there too.
+/// modal analysis in the background) runs first: `f` waits for a pool thread to be free.
 pub fn awake<R: Send>(joins: bool, f: impl FnOnce() -> R + Send) -> R {
     if !joins || threads() == 1 {
         return f();
@@ -102,14 +100,12 @@ pub fn awake<R: Send>(joins: bool, f: impl FnOnce() -> R + Send) -> R {
             }
         }
     };
-    // The run's ticket goes with `f`, so that its checkpoints stop it on the pool thread as here.
-    let ticket = crate::solver::supersede::current();
     rayon::scope(|s| {
         for _ in 1..threads() {
             s.spawn(|_| keep());
         }
         let _done = Done(&done);
-        crate::solver::supersede::carrying(ticket, f)
+        f()
     })
 }
 
@@ -257,25 +253,6 @@ mod tests {
         let caught = std::panic::catch_unwind(|| awake(true, || -> u32 { panic!("in the work") }));
         assert!(caught.is_err());
         assert_eq!(awake(true, || 7), 7, "the pool still works after the panic");
-    }
-
-    /// Work kept awake stops at its checkpoints when the run that called it is superseded.
-    #[test]
-    fn work_kept_awake_stops_with_its_run() {
-        use crate::solver::supersede::{Generation, checkpoint, unless_superseded};
-        let generation = Generation::default();
-        let ticket = generation.next();
-        let passed = AtomicUsize::new(0);
-        let stopped = unless_superseded(&ticket, &|_| {}, |_| {
-            awake(true, || {
-                for _ in 0..5 {
-                    checkpoint();
-                    passed.fetch_add(1, Ordering::SeqCst);
-                    generation.cancel_all();
-                }
-            })
-        });
-        assert_eq!((stopped, passed.load(Ordering::SeqCst)), (None, 1));
     }
 
     #[test]

@@ -504,20 +504,24 @@ impl Solver for Pbd {
         self.update_masses();
         let h = self.settings.step / self.settings.substeps as f64;
         // On a pool thread with the others awake, so that the joins of the scans, the search and the
-        // sweeps hand their halves to another one at once.
+        // sweeps hand their halves to another one at once; the substeps' checkpoints stop as this
+        // thread's run would.
+        let ticket = crate::solver::supersede::current();
         crate::threads::awake(self.model.triangles.len() >= PARALLEL_TRIANGLES, || {
-            for k in 1..=self.settings.substeps {
-                crate::solver::supersede::checkpoint();
-                let t = self.time + h * k as f64;
-                self.substep(h, t).map_err(|Flung { vertices }| {
-                    let reason = format!(
-                        "{vertices} particles moved farther than ten times the cloth's size, or to a non-finite \
+            crate::solver::supersede::carrying(ticket, || {
+                for k in 1..=self.settings.substeps {
+                    crate::solver::supersede::checkpoint();
+                    let t = self.time + h * k as f64;
+                    self.substep(h, t).map_err(|Flung { vertices }| {
+                        let reason = format!(
+                            "{vertices} particles moved farther than ten times the cloth's size, or to a non-finite \
                          place, in one substep"
-                    );
-                    SolverError::Diverged { step: self.steps + 1, time: t, reason }
-                })?;
-            }
-            Ok::<(), SolverError>(())
+                        );
+                        SolverError::Diverged { step: self.steps + 1, time: t, reason }
+                    })?;
+                }
+                Ok::<(), SolverError>(())
+            })
         })?;
         self.time += self.settings.step;
         self.steps += 1;
