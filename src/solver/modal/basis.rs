@@ -4,6 +4,14 @@
 //! chunk mode by mode and axis by axis, each row `LANES` values wide (`[chunk][mode][axis][lane]`). A
 //! step streams once through both arrays, a chunk at a time, with the lanes in SIMD registers. The
 //! last chunk is padded with zero rows.
+//!
+//! The pass streams a copy of both arrays rounded to single precision ([`ModalBasis::chunk`]), and
+//! computes in double. On a large shell it is bound by the bytes it reads, `6 m` values a vertex, and
+//! half the bytes take it from 2.2–2.5 ms to 1.3 ms a step at 100,002 vertices and 16 modes on two
+//! threads (BENCHMARKS.md). The rounding moves a displacement by at most `2⁻²⁴ Σ_j |Φ_ij q_j|`
+//! (6e-8 relative), far below any reduced model's own error; every other use of the basis (drags,
+//! rotations, projections, the reconstruction of `mwts-rs` and `rds`) reads the double-precision
+//! values.
 
 use glam::DVec3;
 
@@ -16,6 +24,9 @@ pub const LANES: usize = 8;
 /// One chunk's three axes of one mode (or of one vector), `LANES` vertices each.
 pub type Rows = [[f64; LANES]; 3];
 
+/// [`Rows`] rounded to single precision, as the per-step pass streams them.
+pub type SingleRows = [[f32; LANES]; 3];
+
 /// `m` vibration modes of a shell. Shapes are mass-normalised (`Φᵀ M Φ = I`); anchored vertices
 /// have zero rows.
 #[derive(Debug, Clone, PartialEq)]
@@ -26,6 +37,9 @@ pub struct ModalBasis {
     phi: Vec<Rows>,
     /// `Ψ = WΦ` in the same layout.
     psi: Vec<Rows>,
+    /// `Φ` and `Ψ` rounded to single precision, for the per-step pass.
+    single_phi: Vec<SingleRows>,
+    single_psi: Vec<SingleRows>,
     modes: usize,
     vertices: usize,
 }
@@ -57,7 +71,10 @@ impl ModalBasis {
                 }
             }
         }
-        Self { eigenvalues, phi, psi, modes: m, vertices: n }
+        let single =
+            |rows: &[Rows]| -> Vec<SingleRows> { rows.iter().map(|r| r.map(|a| a.map(|x| x as f32))).collect() };
+        let (single_phi, single_psi) = (single(&phi), single(&psi));
+        Self { eigenvalues, phi, psi, single_phi, single_psi, modes: m, vertices: n }
     }
 
     /// Number of modes `m`.
@@ -95,10 +112,17 @@ impl ModalBasis {
         self.psi[index(self.modes, v, mode)][axis][v % LANES]
     }
 
-    /// Chunk `c` of `Φ` and of `Ψ`: one [`Rows`] per mode.
-    pub fn chunk(&self, c: usize) -> (&[Rows], &[Rows]) {
+    /// Chunk `c` of `Φ` and of `Ψ` in single precision: one [`SingleRows`] per mode.
+    pub fn chunk(&self, c: usize) -> (&[SingleRows], &[SingleRows]) {
         let m = self.modes;
-        (&self.phi[c * m..(c + 1) * m], &self.psi[c * m..(c + 1) * m])
+        (&self.single_phi[c * m..(c + 1) * m], &self.single_psi[c * m..(c + 1) * m])
+    }
+
+    /// Entries `Φ[v, axis, mode]` and `Ψ[v, axis, mode]` as the per-step pass reads them.
+    #[cfg(test)]
+    pub(super) fn single(&self, v: usize, axis: usize, mode: usize) -> (f64, f64) {
+        let (k, i) = (index(self.modes, v, mode), v % LANES);
+        (f64::from(self.single_phi[k][axis][i]), f64::from(self.single_psi[k][axis][i]))
     }
 
     /// Mode `j`'s displacement of every vertex.

@@ -5,7 +5,9 @@
 //! Per vertex: `l = Φ_i q`, `w = Ψ_i q`, the warp coefficients of `|w|²`, `u = l + b (w × l) +
 //! c (w × (w × l))`, `Rᵀf = f − a (w × f) + b (w × (w × f))`, and `g_j += Φ_ijᵀ Rᵀf` (LMA: `u = l`,
 //! `Rᵀf = f`). Vertices go [`LANES`] at a time in the chunked layout of [`ModalBasis`], so every
-//! operation is a SIMD operation across vertices; the pass is compiled for the best instruction set
+//! operation is a SIMD operation across vertices; `Φ` and `Ψ` are read in single precision (half the
+//! bytes of the stream that bounds a large pass, [`super::basis`]) and widened to double in the
+//! registers, where all arithmetic is done; the pass is compiled for the best instruction set
 //! the CPU has (AVX2 + FMA where available, chosen at run time; products and sums are written as
 //! fused multiply-adds, which is also one rounding fewer).
 //!
@@ -108,10 +110,11 @@ impl pulp::WithSimd for Part<'_> {
             let (phi, psi) = basis.chunk(c);
             for g in 0..groups {
                 let at = |row: &[f64; LANES]| S::as_simd_f64s(row).0[g];
+                let wide = |row: &[f32; LANES]| at(&row.map(f64::from));
                 let mut l = [zero; 3];
                 for (rows, &qj) in phi.iter().zip(&qs) {
                     for (la, row) in l.iter_mut().zip(rows) {
-                        *la = simd.mul_add_e_f64s(at(row), qj, *la);
+                        *la = simd.mul_add_e_f64s(wide(row), qj, *la);
                     }
                 }
                 let fv = f.each_ref().map(at);
@@ -119,7 +122,7 @@ impl pulp::WithSimd for Part<'_> {
                     let mut w = [zero; 3];
                     for (rows, &qj) in psi.iter().zip(&qs) {
                         for (wa, row) in w.iter_mut().zip(rows) {
-                            *wa = simd.mul_add_e_f64s(at(row), qj, *wa);
+                            *wa = simd.mul_add_e_f64s(wide(row), qj, *wa);
                         }
                     }
                     let [a, b, cc] = coefficients(simd, &w);
@@ -137,7 +140,7 @@ impl pulp::WithSimd for Part<'_> {
                 }
                 for (rows, s) in phi.iter().zip(acc.iter_mut().skip(g).step_by(groups)) {
                     for (row, loc) in rows.iter().zip(&local) {
-                        *s = simd.mul_add_e_f64s(at(row), *loc, *s);
+                        *s = simd.mul_add_e_f64s(wide(row), *loc, *s);
                     }
                 }
             }
@@ -199,10 +202,11 @@ mod tests {
     use crate::mesh::generate::grid;
     use crate::solver::modal::warp::{rotation, warp_operator};
 
-    /// The SIMD pass against the per-vertex matrix forms `x = X + (∫exp) Φq`, `g = Φᵀ Rᵀ f`, on
-    /// meshes whose last chunk is partial and whose rotations run from tiny to past a half turn
-    /// (every branch of the coefficients: 7, 10 and 16 series terms and the closed form), one small
-    /// (a whole pass) and one large enough to go in two halves.
+    /// The SIMD pass against the per-vertex matrix forms `x = X + (∫exp) Φq`, `g = Φᵀ Rᵀ f` with the
+    /// single-precision `Φ` and `Ψ` it reads (each within half a unit in the last place of the
+    /// double-precision basis), on meshes whose last chunk is partial and whose rotations run from
+    /// tiny to past a half turn (every branch of the coefficients: 7, 10 and 16 series terms and the
+    /// closed form), one small (a whole pass) and one large enough to go in two halves.
     #[test]
     fn pass_matches_the_per_vertex_matrix_forms() {
         // 39 vertices: four full chunks and one of 7; 87,591: 10,948 full chunks and one of 7.
@@ -224,6 +228,16 @@ mod tests {
         assert_eq!(n * 3 >= SPLIT, n > 1000, "{n} vertices");
         let forces: Vec<DVec3> = (0..n).map(|i| DVec3::new(0.2, -1.0, 0.1 * i as f64)).collect();
         let (rest, chunked) = (ChunkedVectors::new(mesh.positions(), n), ChunkedVectors::new(&forces, n));
+        // The pass's Φ and Ψ: the basis rounded to single precision, entry by entry.
+        let single = |v: usize, j: usize| -> (DVec3, DVec3) {
+            let (phi, psi): (Vec<f64>, Vec<f64>) = (0..3).map(|a| basis.single(v, a, j)).unzip();
+            for a in 0..3 {
+                for (got, exact) in [(phi[a], basis.phi(v, a, j)), (psi[a], basis.psi(v, a, j))] {
+                    assert!((got - exact).abs() <= exact.abs() * f64::from(f32::EPSILON) / 2.0, "{got} vs {exact}");
+                }
+            }
+            (DVec3::from_slice(&phi), DVec3::from_slice(&psi))
+        };
         for scale in [1e-3, 0.1, 0.6, 2.0] {
             let q = [scale, -0.7 * scale, 0.4 * scale];
             let largest = (0..n).map(|v| basis.rotation(v, &q).length()).fold(0.0, f64::max);
@@ -241,7 +255,9 @@ mod tests {
                 .run();
                 let mut expected = [0.0; 3];
                 for v in 0..n {
-                    let (l, w) = (basis.displacement(v, &q), basis.rotation(v, &q));
+                    let rows: Vec<(DVec3, DVec3)> = (0..3).map(|j| single(v, j)).collect();
+                    let l = rows.iter().zip(&q).fold(DVec3::ZERO, |acc, ((phi, _), qj)| acc + *phi * *qj);
+                    let w = rows.iter().zip(&q).fold(DVec3::ZERO, |acc, ((_, psi), qj)| acc + *psi * *qj);
                     let (u, local) =
                         if warp { (warp_operator(w) * l, rotation(w).transpose() * forces[v]) } else { (l, forces[v]) };
                     let want = mesh.positions()[v] + u;
@@ -250,7 +266,7 @@ mod tests {
                         "vertex {v}, θ ≤ {largest}"
                     );
                     for (j, e) in expected.iter_mut().enumerate() {
-                        *e += (0..3).map(|a| basis.phi(v, a, j) * local[a]).sum::<f64>();
+                        *e += rows[j].0.dot(local);
                     }
                 }
                 for (g, e) in force.iter().zip(&expected) {
