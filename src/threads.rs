@@ -80,7 +80,9 @@ pub fn par() -> Par {
 /// thread for the whole join and sleep until it is done, and a pool thread asleep between two joins
 /// costs about as much to wake as the shorter of these stretches do (a position-based substep's
 /// scans, search and sweeps; `mwts-rs`'s triangle pass and solve). Work already in the pool (a
-/// modal analysis in the background) runs first: `f` waits for a pool thread to be free.
+/// modal analysis in the background) runs first: `f` waits for a pool thread to be free. A pool
+/// thread has no thread-local state of the caller's: a solver's step comes here through the
+/// solver layer's own `awake`, which hands its run's ticket to `f`.
 pub fn awake<R: Send>(joins: bool, f: impl FnOnce() -> R + Send) -> R {
     if !joins || threads() == 1 {
         return f();

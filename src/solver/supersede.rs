@@ -160,6 +160,14 @@ pub fn carrying<R>(ticket: Option<Ticket>, f: impl FnOnce() -> R) -> R {
     f()
 }
 
+/// [`crate::threads::awake`] for part of a run: `f` runs on a pool thread that carries this thread's
+/// ticket ([`carrying`]), so it stops at its checkpoints as the run would. Every solver's step that
+/// keeps the pool awake goes through here.
+pub fn awake<R: Send>(joins: bool, f: impl FnOnce() -> R + Send) -> R {
+    let ticket = current();
+    crate::threads::awake(joins, || carrying(ticket, f))
+}
+
 thread_local! {
     /// The ticket of the run under way on this thread, if any.
     static CURRENT: RefCell<Option<Ticket>> = const { RefCell::new(None) };
@@ -225,6 +233,29 @@ mod tests {
         let ticket = generation.next();
         assert_eq!(unless_superseded(&ticket, &|_| {}, |_| on_another(true)), None);
         assert_eq!(passed.load(Ordering::SeqCst), 1, "stopped at the first checkpoint after the cancel");
+        assert!(current().is_none(), "the thread's own ticket is back");
+    }
+
+    #[test]
+    fn work_kept_awake_on_the_pool_stops_at_its_checkpoints() {
+        let generation = Generation::default();
+        let ticket = generation.next();
+        let passed = std::sync::atomic::AtomicU32::new(0);
+        let pooled = std::sync::atomic::AtomicBool::new(false);
+        let stopped = unless_superseded(&ticket, &|_| {}, |_| {
+            awake(true, || {
+                pooled.store(rayon::current_thread_index().is_some(), Ordering::SeqCst);
+                for _ in 0..10 {
+                    checkpoint();
+                    passed.fetch_add(1, Ordering::SeqCst);
+                    generation.cancel_all();
+                }
+            })
+        });
+        assert_eq!(stopped, None);
+        assert_eq!(passed.load(Ordering::SeqCst), 1, "stopped at the first checkpoint after the cancel");
+        // With several threads the work ran on a pool thread, which had no ticket of its own.
+        assert_eq!(pooled.load(Ordering::SeqCst), crate::threads::threads() > 1);
         assert!(current().is_none(), "the thread's own ticket is back");
     }
 

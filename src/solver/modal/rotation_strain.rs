@@ -174,7 +174,7 @@ impl RotationStrain {
         let settling = age > SETTLED_ROWS * step && age > 1e-13;
         let due = !self.drags.is_empty() && (self.rows_at.len() != q.len() || age > ROWS_TURN || settling);
         self.updated_at = q.to_vec();
-        crate::threads::awake(self.splits(), || {
+        crate::solver::supersede::awake(self.splits(), || {
             let drags = if due { &mut self.drags[..] } else { &mut [] };
             let rhs = RightSide { rhs: self.laplacian.rhs_mut(), scratch: &mut self.scratch };
             self.pass.run(q, Some((&self.loads, &mut *force)), Some(rhs), drags);
@@ -189,7 +189,7 @@ impl RotationStrain {
     }
 
     /// Whether a reconstruction has halves to run at once (its triangle pass or its solve), so it
-    /// runs on the pool with its threads awake ([`crate::threads::awake`]).
+    /// runs on the pool with its threads awake ([`crate::solver::supersede::awake`]).
     fn splits(&self) -> bool {
         self.pass.splits() || self.laplacian.splits()
     }
@@ -197,7 +197,7 @@ impl RotationStrain {
     /// Positions `x(q)` alone: no generalised force, no drag rows and no load stiffness (for methods
     /// that keep their own, `rds`).
     pub fn reconstruct(&mut self, q: &[f64], positions: &mut [DVec3]) {
-        crate::threads::awake(self.splits(), || {
+        crate::solver::supersede::awake(self.splits(), || {
             let rhs = RightSide { rhs: self.laplacian.rhs_mut(), scratch: &mut self.scratch };
             self.pass.run(q, None, Some(rhs), &mut []);
             self.place(q, positions);

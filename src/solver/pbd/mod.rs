@@ -62,7 +62,7 @@ use crate::solver::{DragKind, DragSet, ParamValue, Solver, SolverError, StepStat
 use crate::solver::{Footprint, Method};
 
 /// Cloths of at least this many triangles step with the pool's threads kept awake
-/// ([`crate::threads::awake`]): about where their triangle scans and their sweeps' colours start to
+/// ([`crate::solver::supersede::awake`]): about where their triangle scans and their sweeps' colours start to
 /// run in halves (a smaller cloth would keep a thread spinning for nothing).
 const PARALLEL_TRIANGLES: usize = 2048;
 
@@ -506,22 +506,19 @@ impl Solver for Pbd {
         // On a pool thread with the others awake, so that the joins of the scans, the search and the
         // sweeps hand their halves to another one at once; the substeps' checkpoints stop as this
         // thread's run would.
-        let ticket = crate::solver::supersede::current();
-        crate::threads::awake(self.model.triangles.len() >= PARALLEL_TRIANGLES, || {
-            crate::solver::supersede::carrying(ticket, || {
-                for k in 1..=self.settings.substeps {
-                    crate::solver::supersede::checkpoint();
-                    let t = self.time + h * k as f64;
-                    self.substep(h, t).map_err(|Flung { vertices }| {
-                        let reason = format!(
-                            "{vertices} particles moved farther than ten times the cloth's size, or to a non-finite \
+        crate::solver::supersede::awake(self.model.triangles.len() >= PARALLEL_TRIANGLES, || {
+            for k in 1..=self.settings.substeps {
+                crate::solver::supersede::checkpoint();
+                let t = self.time + h * k as f64;
+                self.substep(h, t).map_err(|Flung { vertices }| {
+                    let reason = format!(
+                        "{vertices} particles moved farther than ten times the cloth's size, or to a non-finite \
                          place, in one substep"
-                        );
-                        SolverError::Diverged { step: self.steps + 1, time: t, reason }
-                    })?;
-                }
-                Ok::<(), SolverError>(())
-            })
+                    );
+                    SolverError::Diverged { step: self.steps + 1, time: t, reason }
+                })?;
+            }
+            Ok::<(), SolverError>(())
         })?;
         self.time += self.settings.step;
         self.steps += 1;
