@@ -153,6 +153,15 @@ impl RotationStrain {
         self.stiffness = None;
     }
 
+    /// Compose each triangle's rotation of two (`exp([ω^outer]×) exp([ω^inner]×)`, the coordinates
+    /// from `first` on making the inner one; [`TrianglePass::compose_from`]), or make it one rotation
+    /// of all coordinates (`None`, the default).
+    pub fn compose_from(&mut self, first: Option<usize>) {
+        self.pass.compose_from(first);
+        self.rows_at.clear();
+        self.stiffness = None;
+    }
+
     /// Set the per-vertex external forces (missing trailing vertices get none), constant until the
     /// next call: their adjoint and the triangles' load moments.
     pub fn set_forces(&mut self, forces: &[DVec3]) {
@@ -395,6 +404,40 @@ mod tests {
     }
 
     #[test]
+    fn two_uniform_rotations_composed_turn_the_mesh_by_their_product() {
+        // Two modes, linearised rotations about different axes: summed, the triangles turn by
+        // exp([a θ + b φ]×); composed (the second inside the first), by exp([a θ]×) exp([b φ]×).
+        // Both are rigid motions of the whole mesh, about its centroid, and they differ.
+        let mesh = icosphere(0.5, 2).unwrap();
+        let areas = mesh.vertex_areas();
+        let c = mesh.positions().iter().zip(&areas).map(|(p, a)| *p * *a).sum::<DVec3>() / areas.iter().sum::<f64>();
+        let axes = [DVec3::new(0.3, -0.8, 0.5).normalize(), DVec3::new(0.9, 0.1, -0.2).normalize()];
+        let shapes: Vec<Vec<DVec3>> =
+            axes.iter().map(|a| mesh.positions().iter().map(|p| a.cross(*p - c)).collect()).collect();
+        let basis = ModalBasis::new(&mesh, vec![0.0, 0.0], &shapes);
+        let mut rs = RotationStrain::new(&mesh, &[], &basis).unwrap();
+        let n = mesh.vertex_count();
+        let (mut x, mut g) = (vec![DVec3::ZERO; n], vec![0.0; 2]);
+        let q = [1.3, 2.2];
+        let off = |x: &[DVec3], r: glam::DMat3| {
+            (0..n).map(|v| (x[v] - (c + r * (mesh.positions()[v] - c))).length()).fold(0.0, f64::max)
+        };
+        let (summed, composed) =
+            (rotation(axes[0] * q[0] + axes[1] * q[1]), rotation(axes[0] * q[0]) * rotation(axes[1] * q[1]));
+        rs.update(&q, &mut x, &mut g);
+        assert!(off(&x, summed) < 1e-13, "summed: {}", off(&x, summed));
+        rs.compose_from(Some(1));
+        rs.update(&q, &mut x, &mut g);
+        eprintln!(
+            "composed: worst vertex off by {:.1e} m; the summed rotation is {:.2} m away",
+            off(&x, composed),
+            off(&x, summed)
+        );
+        assert!(off(&x, composed) < 1e-13, "composed: {}", off(&x, composed));
+        assert!(off(&x, summed) > 0.1);
+    }
+
+    #[test]
     fn q_zero_is_the_rest_shape_bit_for_bit_and_the_first_order_is_the_linear_modes() {
         for (name, mesh, anchors) in cases() {
             let (b, mut rs, f) = loaded(&mesh, &anchors);
@@ -422,8 +465,10 @@ mod tests {
 
     #[test]
     fn consistent_forces_and_drag_rows_match_central_differences() {
-        for (name, mesh, anchors) in cases() {
+        // One rotation of all three coordinates, and the third's composed inside the first two's.
+        for ((name, mesh, anchors), inner) in cases().into_iter().flat_map(|c| [(c.clone(), None), (c, Some(2))]) {
             let (b, mut rs, f) = loaded(&mesh, &anchors);
+            rs.compose_from(inner);
             let n = mesh.vertex_count();
             let (mut x, mut g) = (vec![DVec3::ZERO; n], vec![0.0; 3]);
             // Large rotations and strains.
@@ -445,7 +490,10 @@ mod tests {
                 let (plus, minus) = (at(h, &mut rs), at(-h, &mut rs));
                 let work = |x: &[DVec3]| f.iter().zip(x).map(|(a, b)| a.dot(*b)).sum::<f64>();
                 let fd = (work(&plus) - work(&minus)) / (2.0 * h);
-                eprintln!("{name}, mode {j} (rotations up to {largest:.2} rad): g = {:.10e}, FD {fd:.10e}", g[j]);
+                eprintln!(
+                    "{name} ({inner:?}), mode {j} (rotations up to {largest:.2} rad): g = {:.10e}, FD {fd:.10e}",
+                    g[j]
+                );
                 assert!((g[j] - fd).abs() < 1e-6 * fd.abs(), "{name}, mode {j}: {} vs {fd}", g[j]);
                 let column = (plus[dragged] - minus[dragged]) / (2.0 * h);
                 let got = DVec3::new(rows[j], rows[3 + j], rows[6 + j]);

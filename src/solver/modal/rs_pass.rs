@@ -21,6 +21,18 @@
 //! `z = L⁻¹ e_i` with moments `c = Σ_k z_k s_k`: for axis `a`, `∂s/∂ω = J_lᵀ (v × e_a)` with
 //! `v = r₁ σ₁ + r₂ σ₂`, `σ = (I + ε) c`, and `∂s/∂ε = (r₁ₐ c₁, r₂ₐ c₂, r₁ₐ c₂ + r₂ₐ c₁)`.
 //!
+//! **Composed rotations.** Where asked ([`TrianglePass::compose_from`]), a triangle's rotation is
+//! the product `R = R_o R_i` of an outer rotation `R_o = exp([ω^o]×)` from the coordinates before
+//! some index and an inner one `R_i = exp([ω^i]×)` from the rest: what the inner coordinates turn
+//! (a V-beam's section opening, in `rds`'s derivative directions) is turned in the material frame,
+//! and the outer ones (the modes' bend) turn the result, as they do in the shell. To first order
+//! this is `exp([ω^o + ω^i]×)`; summed instead, two large rotations about different axes give
+//! targets that disagree between neighbouring triangles, and the fit leaves membrane strain (the
+//! V-beam through its collapse, BENCHMARKS.md). Then `r_a − t_a = (R_o − I)(t_a + u_a) + u_a`
+//! with `u_a = (R_i − I) t_a`, and since `dR = [J_l(ω^o) dω^o]× R + R_o [J_l(ω^i) dω^i]× R_i`,
+//! `∂s/∂ω^o = J_l(ω^o)ᵀ v` as before and `∂s/∂ω^i = J_l(ω^i)ᵀ R_oᵀ v` for the same
+//! `v = r₁ × A₁ + r₂ × A₂` (for a drag, `v × e_a`): the cross product turns with `R_oᵀ`.
+//!
 //! Triangles go [`LANES`] at a time, every quantity a SIMD vector across them (compiled for the CPU's
 //! best instruction set, as in [`super::kernel`]); only the scatter of `b` is per triangle.
 //!
@@ -73,6 +85,9 @@ pub struct TrianglePass {
     modes: usize,
     /// Per chunk, `6m` rows: `W_t` (x, y, z) then `E_t` (ε₁₁, ε₂₂, ε₁₂), mode by mode.
     rows: Vec<Lanes>,
+    /// The coordinates from this one on turn their triangles first, in the material frame, and the
+    /// ones before it after them ([`TrianglePass::compose_from`]); `None`: one rotation of all.
+    inner: Option<usize>,
     /// The first chunk of the second half (module documentation).
     half: usize,
     /// The unknowns the second half's triangles touch lie in this range.
@@ -135,6 +150,7 @@ impl TrianglePass {
             triangles: moving.len(),
             modes: 0,
             rows: Vec::new(),
+            inner: None,
             half,
             second_unknowns,
         };
@@ -174,6 +190,13 @@ impl TrianglePass {
                 }
             }
         }
+    }
+
+    /// Compose each triangle's rotation of two: `R_t = exp([ω_t^outer]×) exp([ω_t^inner]×)`, with
+    /// `ω^inner` from the coordinates `first..` and `ω^outer` from those before (module
+    /// documentation, *Composed rotations*); `None` (the default): one rotation `exp([W_t q]×)`.
+    pub fn compose_from(&mut self, first: Option<usize>) {
+        self.inner = first;
     }
 
     /// Whether the pass goes in two halves (module documentation).
@@ -294,6 +317,7 @@ impl pulp::WithSimd for Pass<'_> {
     fn with_simd<S: Simd>(self, simd: S) -> Vec<f64> {
         let Self { pass, q, loads, chunks, mut rhs, drags } = self;
         let m = pass.modes;
+        let inner = pass.inner.filter(|&first| first < m);
         let groups = LANES / S::F64_LANES;
         let zero = simd.splat_f64s(0.0);
         let qs: Vec<S::f64s> = q.iter().map(|&x| simd.splat_f64s(x)).collect();
@@ -307,7 +331,7 @@ impl pulp::WithSimd for Pass<'_> {
             let rows = &pass.rows[c * 6 * m..(c + 1) * 6 * m];
             let mut change = [[[0.0; LANES]; 3]; 3];
             for g in 0..groups {
-                let t = Triangle::new(simd, rows, &qs, chunk, g);
+                let t = Triangle::new(simd, rows, &qs, chunk, g, inner);
                 if rhs.is_some() {
                     let columns = t.columns(simd);
                     for (k, out) in change.iter_mut().enumerate() {
@@ -387,15 +411,58 @@ fn turn<S: Simd>(simd: S, omega: &[S::f64s; 3], t: &[S::f64s; 3], a: S::f64s, b:
 }
 
 /// `out[j] += Σ_r rows[r m + j] d_r` for the `m` modes of group `g` (`out` holds every `groups`-th
-/// accumulator from the group's first).
+/// accumulator from the group's first), `d = (∂s/∂ω, ∂s/∂ε)`; the coordinates of an inner rotation
+/// (from `inner.0` on) take `∂s/∂ω^inner = inner.1` instead (module documentation, *Composed
+/// rotations*).
 #[inline(always)]
-fn accumulate<S: Simd>(simd: S, rows: &[Lanes], g: usize, d: [S::f64s; 6], out: &mut [S::f64s]) {
+fn accumulate<S: Simd>(simd: S, rows: &[Lanes], g: usize, (d, inner): Adjoint<S>, out: &mut [S::f64s]) {
     let m = rows.len() / 6;
     let groups = LANES / S::F64_LANES;
-    for (j, s) in out.iter_mut().step_by(groups).enumerate() {
+    let outer = match inner {
+        Some((first, _)) => first,
+        None => m,
+    };
+    for (j, s) in out.iter_mut().step_by(groups).enumerate().take(outer) {
         for (r, dr) in d.iter().enumerate() {
             *s = simd.mul_add_e_f64s(at::<S>(&rows[r * m + j], g), *dr, *s);
         }
+    }
+    if let Some((first, turn)) = inner {
+        for (j, s) in out.iter_mut().step_by(groups).enumerate().skip(first) {
+            for (r, dr) in turn.iter().chain(&d[3..]).enumerate() {
+                *s = simd.mul_add_e_f64s(at::<S>(&rows[r * m + j], g), *dr, *s);
+            }
+        }
+    }
+}
+
+/// A triangle group's `(∂s/∂ω, ∂s/∂ε)`, and for its inner rotation, if any, that rotation's first
+/// coordinate and `∂s/∂ω^inner`.
+type Adjoint<S> = ([<S as Simd>::f64s; 6], Option<(usize, [<S as Simd>::f64s; 3])>);
+
+/// A group of triangles' inner rotation (module documentation, *Composed rotations*).
+struct Inner<S: Simd> {
+    /// Its first coordinate.
+    first: usize,
+    /// `ω^inner`.
+    omega: [S::f64s; 3],
+    /// Its `[(1 − cosθ)/θ², (θ − sinθ)/θ³]`.
+    jacobian: [S::f64s; 2],
+}
+
+impl<S: Simd> Inner<S> {
+    /// `(first, J_l(ω^inner)ᵀ R_outerᵀ v)` for `v = Σ_a r_a × A_a`, the outer rotation `outer` given
+    /// with its Rodrigues coefficients `[sinθ/θ, (1 − cosθ)/θ²]`.
+    #[inline(always)]
+    fn adjoint(
+        &self,
+        simd: S,
+        outer: &[S::f64s; 3],
+        rodrigues_of: [S::f64s; 2],
+        v: &[S::f64s; 3],
+    ) -> (usize, [S::f64s; 3]) {
+        let back = rodrigues(simd, outer, v, simd.neg_f64s(rodrigues_of[0]), rodrigues_of[1]);
+        (self.first, rodrigues(simd, &self.omega, &back, self.jacobian[0], self.jacobian[1]))
     }
 }
 
@@ -410,15 +477,22 @@ struct Triangle<S: Simd> {
     turned: [[S::f64s; 3]; 2],
     /// `r_a`.
     r: [[S::f64s; 3]; 2],
+    /// The outer rotation's `[sinθ/θ, (1 − cosθ)/θ²]`, for `R_outerᵀ`.
+    rodrigues: [S::f64s; 2],
+    /// The inner rotation, if the triangles' rotations are composed.
+    inner: Option<Inner<S>>,
 }
 
 impl<S: Simd> Triangle<S> {
     #[inline(always)]
-    fn new(simd: S, rows: &[Lanes], q: &[S::f64s], chunk: &Chunk, g: usize) -> Self {
+    fn new(simd: S, rows: &[Lanes], q: &[S::f64s], chunk: &Chunk, g: usize, inner: Option<usize>) -> Self {
         let m = q.len();
+        // The outer rotation, from the coordinates before the inner one's (all of them if none).
+        let first = inner.unwrap_or(m);
         let mut kin = [simd.splat_f64s(0.0); 6];
         for (r, k) in kin.iter_mut().enumerate() {
-            for (row, &qj) in rows[r * m..(r + 1) * m].iter().zip(q) {
+            let end = if r < 3 { first } else { m };
+            for (row, &qj) in rows[r * m..r * m + end].iter().zip(q) {
                 *k = simd.mul_add_e_f64s(at::<S>(row, g), qj, *k);
             }
         }
@@ -428,9 +502,30 @@ impl<S: Simd> Triangle<S> {
             [at::<S>(&chunk.frame[0], g), at::<S>(&chunk.frame[1], g), at::<S>(&chunk.frame[2], g)],
             [at::<S>(&chunk.frame[3], g), at::<S>(&chunk.frame[4], g), at::<S>(&chunk.frame[5], g)],
         ];
-        let turned = [turn(simd, &omega, &frame[0], a, b), turn(simd, &omega, &frame[1], a, b)];
+        // r_a = R_outer R_inner t_a; r_a − t_a = (R_outer − I)(t_a + u_a) + u_a with u_a = (R_inner − I) t_a,
+        // so that q = 0 still turns nothing, exactly.
+        let (turned, inner) = match inner {
+            None => ([turn(simd, &omega, &frame[0], a, b), turn(simd, &omega, &frame[1], a, b)], None),
+            Some(first) => {
+                let mut w = [simd.splat_f64s(0.0); 3];
+                for (r, wr) in w.iter_mut().enumerate() {
+                    for (row, &qj) in rows[r * m + first..(r + 1) * m].iter().zip(&q[first..]) {
+                        *wr = simd.mul_add_e_f64s(at::<S>(row, g), qj, *wr);
+                    }
+                }
+                let [ai, bi, ci] = coefficients(simd, &w);
+                let u = [turn(simd, &w, &frame[0], ai, bi), turn(simd, &w, &frame[1], ai, bi)];
+                // No closure here: it would not be compiled for the kernel's instruction set.
+                let turned = [
+                    add(simd, &u[0], &turn(simd, &omega, &add(simd, &frame[0], &u[0]), a, b)),
+                    add(simd, &u[1], &turn(simd, &omega, &add(simd, &frame[1], &u[1]), a, b)),
+                ];
+                (turned, Some(Inner { first, omega: w, jacobian: [simd.neg_f64s(bi), ci] }))
+            }
+        };
         let r = [add(simd, &frame[0], &turned[0]), add(simd, &frame[1], &turned[1])];
-        Self { omega, jacobian: [simd.neg_f64s(b), c], strain: [kin[3], kin[4], kin[5]], turned, r }
+        let jacobian = [simd.neg_f64s(b), c];
+        Self { omega, jacobian, strain: [kin[3], kin[4], kin[5]], turned, r, rodrigues: [a, b], inner }
     }
 
     /// `(I + ε) s` for in-plane coordinates `s`.
@@ -458,7 +553,7 @@ impl<S: Simd> Triangle<S> {
 
     /// `(∂s/∂ω, ∂s/∂ε)` for the load moments `y = [Y₁, Y₂]`.
     #[inline(always)]
-    fn load_adjoint(&self, simd: S, y: [[S::f64s; 3]; 2]) -> [S::f64s; 6] {
+    fn load_adjoint(&self, simd: S, y: [[S::f64s; 3]; 2]) -> Adjoint<S> {
         let [e11, e22, e12] = self.strain;
         let one = simd.splat_f64s(1.0);
         let a1 = combine(simd, &y[0], simd.add_f64s(one, e11), &y[1], e12);
@@ -467,17 +562,22 @@ impl<S: Simd> Triangle<S> {
         let d = rodrigues(simd, &self.omega, &sum, self.jacobian[0], self.jacobian[1]);
         let [r1, r2] = &self.r;
         let cross_terms = simd.add_f64s(dot(simd, r1, &y[1]), dot(simd, r2, &y[0]));
-        [d[0], d[1], d[2], dot(simd, r1, &y[0]), dot(simd, r2, &y[1]), cross_terms]
+        // Not `Option::map`: a closure would not be compiled for the kernel's instruction set.
+        let mut inner = None;
+        if let Some(i) = &self.inner {
+            inner = Some(i.adjoint(simd, &self.omega, self.rodrigues, &sum));
+        }
+        ([d[0], d[1], d[2], dot(simd, r1, &y[0]), dot(simd, r2, &y[1]), cross_terms], inner)
     }
 
     /// `(∂s/∂ω, ∂s/∂ε)` for a drag's moments `z`, for each axis.
     #[inline(always)]
-    fn drag_adjoint(&self, simd: S, z: [S::f64s; 2]) -> [[S::f64s; 6]; 3] {
+    fn drag_adjoint(&self, simd: S, z: [S::f64s; 2]) -> [Adjoint<S>; 3] {
         let sigma = self.stretch(simd, z);
         let v = combine(simd, &self.r[0], sigma[0], &self.r[1], sigma[1]);
         let zero = simd.splat_f64s(0.0);
-        let mut out = [[zero; 6]; 3];
-        for (axis, d) in out.iter_mut().enumerate() {
+        let mut out = [([zero; 6], None); 3];
+        for (axis, (d, inner)) in out.iter_mut().enumerate() {
             // v × e_axis.
             let mut u = [zero; 3];
             (u[(axis + 1) % 3], u[(axis + 2) % 3]) = (v[(axis + 2) % 3], simd.neg_f64s(v[(axis + 1) % 3]));
@@ -485,6 +585,9 @@ impl<S: Simd> Triangle<S> {
             let (r1, r2) = (self.r[0][axis], self.r[1][axis]);
             let mixed = simd.mul_add_e_f64s(r1, z[1], simd.mul_f64s(r2, z[0]));
             *d = [w[0], w[1], w[2], simd.mul_f64s(r1, z[0]), simd.mul_f64s(r2, z[1]), mixed];
+            if let Some(i) = &self.inner {
+                *inner = Some(i.adjoint(simd, &self.omega, self.rodrigues, &u));
+            }
         }
         out
     }

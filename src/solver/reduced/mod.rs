@@ -3,7 +3,12 @@
 //! reconstruction of `mwts-rs` (Huang et al. 2011; Pan, Bao & Huang 2015).
 //!
 //! - **Kinematics** ([`energy`]): `x(c)` is the least-squares fit of edge vectors to per-triangle
-//!   targets `exp([W_t c]×)(I + E_t c)(X_j − X_i)`, so rows of the shell turn by any angle.
+//!   targets `exp([W_t c_o]×) exp([W_t c_i]×)(I + E_t c)(X_j − X_i)`, so rows of the shell turn by
+//!   any angle: the rotation of the first-order coordinates `c_o` (modes and load responses) acts on
+//!   triangles the others `c_i` (derivative directions, drag responses) have turned in the material
+//!   frame. Summing the two into one rotation vector instead locks the V-beam's fold through its
+//!   collapse (its closest shape carries 21 J of membrane energy where the shell's has 12 J; 17%
+//!   off at 1200 m/s² against 9% composed, BENCHMARKS.md); to second order the two agree.
 //! - **Basis** ([`basis`]): the `m` lowest modes and their modal derivatives (Barbič & James 2005)
 //!   less the reconstruction's own second order, pruned by mass-PCA; the modes' span is kept
 //!   exactly.
