@@ -12,7 +12,9 @@
 //! right sides from [`super::rs_pass`]). To first order the targets are `X_j − X_i + (Φq)_j −
 //! (Φq)_i`, so `x(q) = X + Φq + O(|q|²)` and `∂x/∂q = Φ` at rest; a uniform `ω` with no strain is an
 //! exact rigid rotation at any angle; `q = 0` is the rest shape bit for bit (the pass adds exact
-//! zeros). Free shells: see the gauge in [`super::laplacian`].
+//! zeros). Free shells: see the gauge in [`super::laplacian`]. `rds` composes each triangle's
+//! rotation of two instead, `exp([ω_t^o]×) exp([ω_t^i]×)` from two groups of its coordinates
+//! ([`RotationStrain::compose_from`], [`super::rs_pass`]); `mwts-rs` keeps one.
 //!
 //! **Forces.** The load acts through its virtual work on the reconstruction: `g(q) = J(q)ᵀ f` with
 //! `J = ∂x/∂q`, so a static equilibrium is a stationary point of `½ qᵀΛq − fᵀx(q)`. By the adjoint,
