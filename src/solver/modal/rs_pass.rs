@@ -194,7 +194,8 @@ impl TrianglePass {
 
     /// Compose each triangle's rotation of two: `R_t = exp([ω_t^outer]×) exp([ω_t^inner]×)`, with
     /// `ω^inner` from the coordinates `first..` and `ω^outer` from those before (module
-    /// documentation, *Composed rotations*); `None` (the default): one rotation `exp([W_t q]×)`.
+    /// documentation, *Composed rotations*); `None` (the default), or a `first` at or past the last
+    /// coordinate: one rotation `exp([W_t q]×)`.
     pub fn compose_from(&mut self, first: Option<usize>) {
         self.inner = first;
     }
@@ -418,21 +419,25 @@ fn turn<S: Simd>(simd: S, omega: &[S::f64s; 3], t: &[S::f64s; 3], a: S::f64s, b:
 fn accumulate<S: Simd>(simd: S, rows: &[Lanes], g: usize, (d, inner): Adjoint<S>, out: &mut [S::f64s]) {
     let m = rows.len() / 6;
     let groups = LANES / S::F64_LANES;
-    let outer = match inner {
-        Some((first, _)) => first,
-        None => m,
+    let (outer, turned) = match inner {
+        Some((first, t)) => (first, [t[0], t[1], t[2], d[3], d[4], d[5]]),
+        None => (m, d),
     };
-    for (j, s) in out.iter_mut().step_by(groups).enumerate().take(outer) {
-        for (r, dr) in d.iter().enumerate() {
-            *s = simd.mul_add_e_f64s(at::<S>(&rows[r * m + j], g), *dr, *s);
-        }
+    let mut columns = out.iter_mut().step_by(groups).enumerate();
+    for (j, s) in columns.by_ref().take(outer) {
+        column(simd, rows, g, j, &d, s);
     }
-    if let Some((first, turn)) = inner {
-        for (j, s) in out.iter_mut().step_by(groups).enumerate().skip(first) {
-            for (r, dr) in turn.iter().chain(&d[3..]).enumerate() {
-                *s = simd.mul_add_e_f64s(at::<S>(&rows[r * m + j], g), *dr, *s);
-            }
-        }
+    for (j, s) in columns {
+        column(simd, rows, g, j, &turned, s);
+    }
+}
+
+/// `s += Σ_r rows[r m + j] d_r`, lanes `g`, for one mode `j` of [`accumulate`].
+#[inline(always)]
+fn column<S: Simd>(simd: S, rows: &[Lanes], g: usize, j: usize, d: &[S::f64s; 6], s: &mut S::f64s) {
+    let m = rows.len() / 6;
+    for (r, dr) in d.iter().enumerate() {
+        *s = simd.mul_add_e_f64s(at::<S>(&rows[r * m + j], g), *dr, *s);
     }
 }
 

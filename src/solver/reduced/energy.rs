@@ -71,7 +71,7 @@ impl ReducedShell {
         let mut rs = RotationStrain::new(mesh, anchors, &modal)?;
         // The modes' and load responses' rotations act last, on triangles the rest have turned in the
         // material frame (module documentation).
-        rs.compose_from((basis.first_order() < basis.len()).then_some(basis.first_order()));
+        rs.compose_from(Some(basis.first_order()));
         let shell = DiscreteShell::new(mesh, k).map_err(|e| SolverError::Numerical(e.to_string()))?;
         let mut fixed = vec![false; mesh.vertex_count()];
         anchors.iter().for_each(|&a| fixed[a] = true);
