@@ -210,6 +210,103 @@ pub fn phases<T: Send>(tasks: Vec<(usize, T)>, run: impl Fn(T) + Sync) {
     });
 }
 
+/// How long the first of a [`pair`] waits for a thread to take the second's part before doing it
+/// itself, in spins.
+const PAIR_WAIT: u32 = 1 << 12;
+
+/// One worker of a [`pair`]: the halves of the work it does and the barrier it shares.
+pub struct Pair<'a> {
+    halves: &'static [usize],
+    state: Option<&'a PairState>,
+    round: usize,
+}
+
+/// What the two workers of a [`pair`] share.
+#[derive(Default)]
+struct PairState {
+    /// Whether the second part has been taken (by a thread, or by the first worker doing both).
+    claimed: AtomicBool,
+    /// How many times the workers have arrived at a barrier, together.
+    arrived: AtomicUsize,
+    /// Whether a worker has stopped early (a panic, or a superseded run's stop).
+    abandoned: AtomicBool,
+}
+
+impl Pair<'_> {
+    /// A worker alone, doing both halves.
+    pub fn alone() -> Self {
+        Pair { halves: &[0, 1], state: None, round: 0 }
+    }
+
+    /// The halves of the work this worker does: `[0, 1]` alone, else `[0]` or `[1]`.
+    pub fn halves(&self) -> &'static [usize] {
+        self.halves
+    }
+
+    /// Wait for the other worker to reach its matching call (nothing alone). Both must call it as
+    /// many times. If the other stopped early, this one stops too (a panic).
+    pub fn sync(&mut self) {
+        let Some(state) = self.state else { return };
+        self.round += 1;
+        state.arrived.fetch_add(1, Ordering::AcqRel);
+        let mut spins = 0u32;
+        while state.arrived.load(Ordering::Acquire) < 2 * self.round {
+            assert!(!state.abandoned.load(Ordering::Acquire), "the other worker of a pair stopped");
+            spins = spins.wrapping_add(1);
+            if spins.is_multiple_of(4096) {
+                std::thread::yield_now();
+            } else {
+                std::hint::spin_loop();
+            }
+        }
+    }
+}
+
+/// Marks the pair abandoned if its worker unwinds.
+struct Abandon<'a>(&'a AtomicBool);
+
+impl Drop for Abandon<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.0.store(true, Ordering::Release);
+        }
+    }
+}
+
+/// `work` by two workers at once, each doing one half and meeting the other at [`Pair::sync`], when
+/// there are several threads and a second one takes its part soon; else by one worker doing both
+/// halves (its syncs do nothing). Returns what the worker of the first half (or the only one)
+/// returns. For short phases that would cost more to start as joins than to run: the workers meet
+/// by spinning, a fraction of a microsecond, and each keeps its half's data in its own core's
+/// cache. Call it on a pool thread kept [`awake`], or the second part may find no thread soon.
+pub fn pair<R: Send>(work: impl Fn(&mut Pair) -> R + Sync) -> R {
+    let alone = || work(&mut Pair::alone());
+    if threads() == 1 {
+        return alone();
+    }
+    let state = PairState::default();
+    let claim = || state.claimed.compare_exchange(false, true, Ordering::AcqRel, Ordering::Acquire).is_ok();
+    let first = || {
+        let mut spins = 0;
+        while !state.claimed.load(Ordering::Acquire) && spins < PAIR_WAIT {
+            std::hint::spin_loop();
+            spins += 1;
+        }
+        if claim() {
+            return alone();
+        }
+        let _abandon = Abandon(&state.abandoned);
+        work(&mut Pair { halves: &[0], state: Some(&state), round: 0 })
+    };
+    let second = || {
+        if claim() {
+            let _abandon = Abandon(&state.abandoned);
+            work(&mut Pair { halves: &[1], state: Some(&state), round: 0 });
+        }
+    };
+    rayon::join(first, second).0
+}
+
 /// Every core this process may run on.
 fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
@@ -255,6 +352,44 @@ mod tests {
         let caught = std::panic::catch_unwind(|| awake(true, || -> u32 { panic!("in the work") }));
         assert!(caught.is_err());
         assert_eq!(awake(true, || 7), 7, "the pool still works after the panic");
+    }
+
+    /// The two workers of a pair each do their half, and a sum that needs both halves' results after
+    /// a sync sees them; on one thread one worker does both. A panic in one worker reaches the caller
+    /// instead of leaving the other at its barrier.
+    #[test]
+    fn a_pair_does_both_halves_and_meets_at_its_syncs() {
+        for _ in 0..200 {
+            let slots = [AtomicUsize::new(0), AtomicUsize::new(0)];
+            let (total, workers) = awake(true, || {
+                let workers = AtomicUsize::new(0);
+                let total = pair(|p| {
+                    workers.fetch_add(1, Ordering::Relaxed);
+                    let mut sum = 0;
+                    for round in 1..=50 {
+                        p.halves().iter().for_each(|&h| slots[h].store(round * (h + 1), Ordering::Relaxed));
+                        p.sync();
+                        sum += slots[0].load(Ordering::Relaxed) + slots[1].load(Ordering::Relaxed);
+                        p.sync();
+                    }
+                    sum
+                });
+                (total, workers.into_inner())
+            });
+            assert_eq!(total, 3 * 50 * 51 / 2);
+            assert!(workers == 1 || (workers == 2 && threads() > 1), "{workers} workers");
+        }
+        let caught = std::panic::catch_unwind(|| {
+            awake(true, || {
+                pair(|p| {
+                    if p.halves().contains(&1) {
+                        panic!("in the second half");
+                    }
+                    p.sync();
+                })
+            })
+        });
+        assert!(caught.is_err());
     }
 
     #[test]

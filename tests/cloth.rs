@@ -85,8 +85,7 @@ fn pcg_matches_a_direct_sparse_solve_of_the_filtered_system() {
     let mut dv = vec![DVec3::ZERO; n];
     let stop = Stop { tolerance: 1e-14, floor: 0.0, max_iterations: 20_000 };
     let mut residual = vec![DVec3::ZERO; n];
-    let report =
-        filtered_pcg::solve(system, &step.preconditioner, &step.constraints, &step.rhs, &mut dv, stop, &mut residual);
+    let report = step.solve(system, &mut dv, stop, &mut residual, &mut filtered_pcg::Workspace::default());
     println!("PCG: {report:?}");
     // The reduced basis T: the filter's range for constrained particles, the axes for free ones.
     let mut basis: Vec<(usize, DVec3)> = Vec::new();

@@ -6,7 +6,8 @@
 //! per unknown of a scalar matrix ([`VectorCholesky`]), and Baraff–Witkin's
 //! filtered PCG for constrained particle systems ([`filtered_pcg`]); hot loops compiled for the CPU's
 //! best instruction set ([`isa`]) over per-particle vectors padded to four lanes ([`padded`]),
-//! arithmetic that one formula writes for a number and for SIMD lanes alike ([`real`]);
+//! arithmetic that one formula writes for a number and for SIMD lanes alike ([`real`]), slices that
+//! threads write at once, each its own entries ([`shared`]);
 //! non-negative least squares ([`nnls`]) and a deterministic generator ([`random`]).
 
 mod assembly;
@@ -22,6 +23,7 @@ pub mod ordering;
 pub mod padded;
 pub mod random;
 pub mod real;
+pub mod shared;
 mod substitution;
 mod supernodal_solve;
 mod supernodal_split;

@@ -10,11 +10,11 @@
 //! (the two at once on two threads), then the top; backward, the top, then each half (at once). One
 //! thread runs the same phases in turn, so that the solution does not depend on the thread count.
 
-use std::marker::PhantomData;
 use std::ops::{Index, IndexMut, Range};
 
 use super::isa::{Kernel, avx2};
 use super::padded::Padded;
+use super::shared::Shared;
 
 /// The integer type of the factor's indices.
 pub(super) trait FactorIndex: Copy + Default + std::fmt::Debug + PartialEq {
@@ -196,7 +196,12 @@ pub(super) fn substitute<I, X>(
     let [first, second] = from_halves;
     match halves {
         Some([a, b]) if parallel => {
-            let shared = Shared::new(x.as_mut());
+            // SAFETY: the halves never meet ([`Factor::new`] checks it, and the columns are the
+            // rows' transpose): in either substitution, a thread writes only its own half's unknowns
+            // and reads only those and the top's, and no thread writes the top's while the halves
+            // are solved.
+            #[allow(unsafe_code)]
+            let shared = unsafe { Shared::new(x.as_mut()) };
             let pass = |factor, lines, reverse| {
                 avx2(Substitute { factor, lines, inverse_diagonal, x: &mut shared.clone(), reverse });
             };
@@ -239,54 +244,6 @@ fn add_from_halves<X: ?Sized + IndexMut<usize, Output = Padded>>(
 ) {
     for (k, (a, b)) in first.iter().zip(second).enumerate() {
         x[top + k] = x[top + k] + *a + *b;
-    }
-}
-
-/// The solution as two threads see it at once while each solves its half of the elimination tree.
-///
-/// Sound because the halves never meet ([`Factor::new`] checks it, and the columns are the rows'
-/// transpose): in either substitution, a thread writes only its own half's unknowns and reads only
-/// those and the top's, and no thread writes the top's while the halves are solved. Every access is
-/// checked against the slice it was made from, whose borrow it keeps.
-#[derive(Clone, Copy)]
-struct Shared<'a> {
-    x: *mut Padded,
-    len: usize,
-    borrow: PhantomData<&'a mut [Padded]>,
-}
-
-impl<'a> Shared<'a> {
-    /// The view of `x`, borrowed for as long as the view lives.
-    fn new(x: &'a mut [Padded]) -> Self {
-        Self { x: x.as_mut_ptr(), len: x.len(), borrow: PhantomData }
-    }
-}
-
-// SAFETY: see the type's documentation: the threads' writes and reads never overlap.
-#[allow(unsafe_code)]
-unsafe impl Send for Shared<'_> {}
-// SAFETY: as for `Send`.
-#[allow(unsafe_code)]
-unsafe impl Sync for Shared<'_> {}
-
-impl Index<usize> for Shared<'_> {
-    type Output = Padded;
-    #[inline(always)]
-    #[allow(unsafe_code)]
-    fn index(&self, j: usize) -> &Padded {
-        assert!(j < self.len, "unknown {j} of {}", self.len);
-        // SAFETY: in bounds, and no other thread writes it now (the type's documentation).
-        unsafe { &*self.x.add(j) }
-    }
-}
-
-impl IndexMut<usize> for Shared<'_> {
-    #[inline(always)]
-    #[allow(unsafe_code)]
-    fn index_mut(&mut self, j: usize) -> &mut Padded {
-        assert!(j < self.len, "unknown {j} of {}", self.len);
-        // SAFETY: in bounds, in this thread's half, which no other thread reads or writes now.
-        unsafe { &mut *self.x.add(j) }
     }
 }
 

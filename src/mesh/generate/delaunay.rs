@@ -16,7 +16,9 @@ const ANGLE_LIMIT_DEG: f64 = 28.0;
 /// ≈`edge` (each side split into `round(side / edge)` equal parts, at least one), then
 /// `refine` inserts Steiner points until every triangle has area ≤ √3/4·`edge`² (an equilateral
 /// triangle of side `edge`) and minimum angle ≥ 28°. Interior valence is irregular (mostly 5–7),
-/// unlike [`super::grid`]. The result is deterministic (spade's refinement has no randomness).
+/// unlike [`super::grid`]. Vertices are numbered by z, then x (as the grid's rows), so that a range
+/// of indices is a patch of the sheet. The result is deterministic (spade's refinement has no
+/// randomness).
 ///
 /// The cloth-on-a-ball drape of the particle-cloth paper uses 958 particles on a square:
 /// `delaunay_sheet([1.0, 1.0], 0.0451)` gives 961 vertices (0.0450 → 965, 0.0452 → 955; the count is
@@ -78,12 +80,18 @@ pub fn delaunay_sheet(size: [f64; 2], edge: f64) -> Result<TriMesh, MeshError> {
     if !result.refinement_complete {
         return Err(bad(&"refinement did not complete"));
     }
-    let positions = cdt.vertices().map(|v| DVec3::new(v.position().x, 0.0, v.position().y)).collect();
+    let points: Vec<DVec3> = cdt.vertices().map(|v| DVec3::new(v.position().x, 0.0, v.position().y)).collect();
+    // Numbered across the sheet in z, then x, so that index ranges are patches of it.
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_by(|&a, &b| points[a].z.total_cmp(&points[b].z).then(points[a].x.total_cmp(&points[b].x)));
+    let mut index = vec![0; points.len()];
+    order.iter().enumerate().for_each(|(new, &old)| index[old] = new);
+    let positions = order.iter().map(|&old| points[old]).collect();
     // Spade's faces are counter-clockwise in (x, z), whose normal is −y: swap two corners for +y.
     let triangles = cdt
         .inner_faces()
         .map(|f| {
-            let [a, b, c] = f.vertices().map(|v| v.fix().index());
+            let [a, b, c] = f.vertices().map(|v| index[v.fix().index()]);
             [a, c, b]
         })
         .collect();

@@ -126,6 +126,21 @@ pub struct LinearStep {
     pub error_floor: f64,
 }
 
+impl LinearStep {
+    /// Solve it with `system`'s product by the filtered PCG: `dv` the warm start and the result,
+    /// `residual` its `b − A Δv`, `work` the iteration's vectors.
+    pub fn solve(
+        &self,
+        system: &ClothSystem,
+        dv: &mut [DVec3],
+        stop: Stop,
+        residual: &mut [DVec3],
+        work: &mut filtered_pcg::Workspace,
+    ) -> PcgReport {
+        filtered_pcg::solve(system, &self.preconditioner, &self.constraints, &self.rhs, dv, stop, residual, work)
+    }
+}
+
 /// The largest growth of a stretch spring's strain in one step that is accepted (see [`Cloth::advance`]).
 const STRAIN_JUMP: f64 = 0.05;
 
@@ -155,6 +170,8 @@ pub struct Cloth {
     work: LinearStep,
     /// The last solve's residual `b − A Δv`.
     residual: Vec<DVec3>,
+    /// The solves' vectors.
+    pcg: filtered_pcg::Workspace,
     /// Which particles anchors or drags hold this step.
     held: Vec<bool>,
     anchored: Vec<bool>,
@@ -234,6 +251,7 @@ impl Cloth {
             dv: vec![DVec3::ZERO; n],
             work: LinearStep::default(),
             residual: vec![DVec3::ZERO; n],
+            pcg: filtered_pcg::Workspace::default(),
             held: vec![false; n],
             rest,
             anchored: setup.anchored_mask(),
@@ -330,15 +348,8 @@ impl Cloth {
     fn single_step(&mut self, h: f64) -> (PcgReport, SpringState) {
         let mut step = std::mem::take(&mut self.work);
         self.linearise_into(h, &mut step);
-        let report = filtered_pcg::solve(
-            &self.system,
-            &step.preconditioner,
-            &step.constraints,
-            &step.rhs,
-            &mut self.dv,
-            Stop { tolerance: self.tolerance, floor: step.error_floor, max_iterations: self.iterations },
-            &mut self.residual,
-        );
+        let stop = Stop { tolerance: self.tolerance, floor: step.error_floor, max_iterations: self.iterations };
+        let report = step.solve(&self.system, &mut self.dv, stop, &mut self.residual, &mut self.pcg);
         self.work = step;
         self.contacts.update(self.contact, &self.residual, h);
         for ((x, v), dv) in self.x.iter_mut().zip(&mut self.v).zip(&self.dv) {
@@ -380,7 +391,9 @@ impl Solver for Cloth {
 
     fn step(&mut self) -> Result<StepStats, SolverError> {
         let start = Instant::now();
-        let (report, spring_energy) = self.advance(self.h, 0);
+        // Keeps the pool's threads awake for the passes' joins.
+        let (report, spring_energy) =
+            crate::solver::supersede::awake(self.system.parallel(), || self.advance(self.h, 0));
         self.steps += 1;
         let energy = spring_energy + self.system.particle_energy(&self.x, &self.v, &self.rest, self.gravity);
         check_finite(self.steps, self.time, &self.x, energy, self.energy_limit)?;

@@ -15,6 +15,20 @@
 //! product with the matrix is one pass over the springs, about 15 flops each. The pass that
 //! linearises the springs also accumulates the right side and the diagonal blocks, and the pass that
 //! measures the state after a step yields both the springs' energy and their strain growth.
+//!
+//! **Two sides.** The particles are halved by index, `..h` and `h..` with `h = n/2` (a generated
+//! sheet is numbered across it, so each half is a patch), and the springs are taken in three groups
+//! (`Split`): those within the first side, those within the second, and the few across. Each side's
+//! rows of the product and of the linearisation are its own springs' terms and then the crossing
+//! springs' terms on its particles, so two threads can each own one side's rows (the product's through
+//! [`filtered_pcg`]'s pair of workers, the linearisation's through a join) and each row takes its
+//! terms in one order on any number of threads: the results are the same to the bit. The crossing
+//! springs are linearised once, before the sides, and each side's product evaluates them for its own
+//! ends.
+//!
+//! [`filtered_pcg`]: crate::linalg::filtered_pcg
+
+use std::ops::Range;
 
 use glam::{DMat3, DVec3};
 
@@ -23,6 +37,7 @@ use crate::energy::springs::{self, Buckling};
 use crate::linalg::filtered_pcg::Operator;
 use crate::linalg::isa;
 use crate::linalg::padded::{Padded, PaddedMat3};
+use crate::threads;
 
 /// Spring stiffnesses and damping, per spring.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -59,18 +74,74 @@ impl RankOne {
     }
 }
 
+/// Springs each side must have for the sides to be worked on by two threads.
+const PARALLEL_SPRINGS: usize = 1000;
+
+/// The springs in the order every pass takes them: those within the first side (particles `..h`),
+/// those within the second (`h..`), then those across.
+#[derive(Debug, Clone)]
+struct Split {
+    /// The first particle of the second side.
+    half: usize,
+    /// The graph's index of each spring, in pass order.
+    springs: Vec<usize>,
+    /// Their particles.
+    pairs: Vec<[usize; 2]>,
+    /// Their particles numbered within their side (the crossing springs': as in `pairs`).
+    local: Vec<[usize; 2]>,
+    /// Where the second side's springs and the crossing ones begin.
+    bounds: [usize; 2],
+}
+
+impl Split {
+    /// The split of `graph`'s springs among `n` particles (each group in the graph's order).
+    fn new(graph: &SpringGraph, n: usize) -> Self {
+        let half = n / 2;
+        let group = |[i, j]: [usize; 2]| if (i < half) == (j < half) { usize::from(i >= half) } else { 2 };
+        let mut springs: Vec<usize> = (0..graph.pairs.len()).collect();
+        springs.sort_by_key(|&s| group(graph.pairs[s]));
+        let pairs: Vec<[usize; 2]> = springs.iter().map(|&s| graph.pairs[s]).collect();
+        let first_of = |g| pairs.iter().position(|p| group(*p) >= g).unwrap_or(pairs.len());
+        let local =
+            pairs.iter().map(|&[i, j]| if group([i, j]) == 1 { [i - half, j - half] } else { [i, j] }).collect();
+        Self { half, bounds: [first_of(1), first_of(2)], springs, pairs, local }
+    }
+
+    /// The three groups' places in pass order: the two sides' springs and the crossing ones.
+    fn groups(&self) -> [Range<usize>; 3] {
+        let [a, b] = self.bounds;
+        [0..a, a..b, b..self.pairs.len()]
+    }
+
+    /// Whether each side has enough springs to be worked on by a thread of its own.
+    fn two_sided(&self) -> bool {
+        let [a, b] = self.bounds;
+        a.min(b - a) >= PARALLEL_SPRINGS
+    }
+}
+
+/// `x` (an entry per spring, in pass order) cut into the split's three groups.
+fn in_three<'a, T>(x: &'a mut [T], split: &Split) -> [&'a mut [T]; 3] {
+    let [a, b] = split.bounds;
+    let (first, rest) = x.split_at_mut(a);
+    let (second, across) = rest.split_at_mut(b - a);
+    [first, second, across]
+}
+
 /// Springs whose lengths [`lengths`] takes at once.
 const LANES: usize = 4;
 
-/// The lengths `r = |xⱼ − xᵢ|` of up to [`LANES`] springs, the square roots taken together (one
-/// vector instruction where the CPU has one).
+/// The lengths `r = |xⱼ − xᵢ|` of up to [`LANES`] springs and their inverses (0 at `r = 0`), the
+/// square roots taken together (one vector instruction where the CPU has one).
 #[inline(always)]
-fn lengths(pairs: &[[usize; 2]], x: &[DVec3]) -> [f64; LANES] {
+fn lengths(pairs: &[[usize; 2]], x: &[DVec3]) -> [(f64, f64); LANES] {
     let mut squared = [0.0; LANES];
     for (q, &[i, j]) in squared.iter_mut().zip(pairs) {
         *q = (x[j] - x[i]).length_squared();
     }
-    squared.map(f64::sqrt)
+    let r = squared.map(f64::sqrt);
+    let inverse = r.map(|r| if r > 0.0 { 1.0 / r } else { 0.0 });
+    [0, 1, 2, 3].map(|k| (r[k], inverse[k]))
 }
 
 /// The springs at a state reached by a step ([`ClothSystem::measure`]).
@@ -91,19 +162,27 @@ pub struct ClothSystem {
     buckling: Vec<Buckling>,
     /// `m̃ᵢ = mᵢ / wᵢ`.
     scaled_mass: Vec<f64>,
-    /// Per spring, the step's block `G = h k_d I + h² K` with the kept stiffness `K = a x̂x̂ᵀ + b I`.
+    /// The order of the springs' passes.
+    split: Split,
+    /// The step's block `G = h k_d I + h² K` with the kept stiffness `K = a x̂x̂ᵀ + b I`, per spring
+    /// in pass order.
     step_matrix: Vec<RankOne>,
-    /// Spring lengths at the last linearisation.
+    /// Spring lengths at the last linearisation, in pass order.
     length: Vec<f64>,
+    /// The crossing springs' terms of the right side at the last linearisation (on their first particle).
+    across_force: Vec<DVec3>,
 }
 
 impl ClothSystem {
     /// Springs of `graph` with `params`.
     pub fn new(graph: SpringGraph, params: SpringParams) -> Self {
         let scaled_mass = graph.masses.iter().zip(&graph.weights).map(|(m, w)| m / w).collect();
+        let split = Split::new(&graph, graph.masses.len());
         let mut system = Self {
             step_matrix: vec![RankOne::default(); graph.pairs.len()],
             length: vec![0.0; graph.pairs.len()],
+            across_force: vec![DVec3::ZERO; split.groups()[2].len()],
+            split,
             graph,
             params,
             buckling: Vec::new(),
@@ -137,6 +216,12 @@ impl ClothSystem {
         &self.graph
     }
 
+    /// Whether a step's work runs on two threads: there are several, and each side of the cloth
+    /// has enough springs.
+    pub fn parallel(&self) -> bool {
+        self.split.two_sided() && threads::threads() > 1
+    }
+
     /// `m̃ᵢ = mᵢ/wᵢ` at the current density.
     pub fn scaled_masses(&self) -> &[f64] {
         &self.scaled_mass
@@ -153,21 +238,44 @@ impl ClothSystem {
         rhs: &mut [DVec3],
         preconditioner: &mut [PaddedMat3],
     ) {
-        struct Linearise<'a> {
-            system: &'a mut ClothSystem,
-            state: (&'a [DVec3], &'a [DVec3]),
-            g: DVec3,
-            h: f64,
-            out: (&'a mut [DVec3], &'a mut [PaddedMat3]),
+        let parallel = self.parallel();
+        let springs = Springs { graph: &self.graph, params: self.params, buckling: &self.buckling, split: &self.split };
+        let [first, second, across] = self.split.groups();
+        let [step_first, step_second, step_across] = in_three(&mut self.step_matrix, &self.split);
+        let [length_first, length_second, length_across] = in_three(&mut self.length, &self.split);
+        isa::avx2(Across {
+            springs,
+            range: across.clone(),
+            state: (x, v),
+            h,
+            out: (&mut *step_across, &mut *length_across, &mut self.across_force),
+        });
+        let across = Crossing { pairs: &self.split.pairs[across], step: step_across, force: &self.across_force };
+        let half = self.split.half;
+        let (rhs_first, rhs_second) = rhs.split_at_mut(half);
+        let (diagonal_first, diagonal_second) = preconditioner.split_at_mut(half);
+        let mass = &self.scaled_mass;
+        let side = |range, rows: Range<usize>, step, length, rhs, diagonal| {
+            isa::avx2(Side {
+                springs,
+                range,
+                rows,
+                mass,
+                across,
+                state: (x, v),
+                g,
+                h,
+                out: (step, length, rhs, diagonal),
+            });
+        };
+        let first_side = || side(first, 0..half, step_first, length_first, rhs_first, diagonal_first);
+        let second_side = || side(second, half..x.len(), step_second, length_second, rhs_second, diagonal_second);
+        if parallel {
+            threads::join(first_side, second_side);
+        } else {
+            first_side();
+            second_side();
         }
-        impl isa::Kernel for Linearise<'_> {
-            type Output = ();
-            #[inline(always)]
-            fn run(self) {
-                self.system.linearise_here(self.state, self.g, self.h, self.out);
-            }
-        }
-        isa::avx2(Linearise { system: self, state: (x, v), g, h, out: (rhs, preconditioner) });
     }
 
     /// Add external forces `f` (N per particle, held over a step of `h`) to a right side made by
@@ -177,84 +285,18 @@ impl ClothSystem {
         rhs.iter_mut().zip(f).zip(weights).for_each(|((b, f), w)| *b += *f * (h / w));
     }
 
-    /// [`Self::linearise`], compiled for whatever instruction set its caller is.
-    #[inline(always)]
-    fn linearise_here(
-        &mut self,
-        (x, v): (&[DVec3], &[DVec3]),
-        g: DVec3,
-        h: f64,
-        (rhs, diagonal): (&mut [DVec3], &mut [PaddedMat3]),
-    ) {
-        for ((b, d), m) in rhs.iter_mut().zip(diagonal.iter_mut()).zip(&self.scaled_mass) {
-            *b = g * (h * m);
-            *d = DMat3::from_diagonal(DVec3::splat(*m)).into();
-        }
-        let (k_s, k_d, h2) = (self.params.k_s, self.params.k_d, h * h);
-        let stretch = self.graph.stretch;
-        for (chunk, pairs) in self.graph.pairs.chunks(LANES).enumerate() {
-            let r = lengths(pairs, x);
-            let inverse = r.map(|r| if r > 0.0 { 1.0 / r } else { 0.0 });
-            for (k, &[i, j]) in pairs.iter().enumerate() {
-                let (s, r, inverse) = (chunk * LANES + k, r[k], inverse[k]);
-                self.length[s] = r;
-                let dir = Padded::from(x[j] - x[i]) * inverse;
-                let (tension, stiffness) = if s < stretch {
-                    // Stretched: the exact Jacobian k_s x̂x̂ᵀ + (T/r)(I − x̂x̂ᵀ). Slack (T = 0): still k_s x̂x̂ᵀ
-                    // along the spring — see the module doc.
-                    let tension = springs::stretch(r, self.graph.rest[s], k_s).tension;
-                    (tension, RankOne { dir, a: k_s - tension * inverse, c: tension * inverse })
-                } else {
-                    // Longitudinal term only (Choi & Ko), S ≥ 0.
-                    let (tension, slope) = self.buckling[s - stretch].tension_stiffness(r);
-                    (tension, RankOne { dir, a: slope, c: 0.0 })
-                };
-                // Force on i (spring and damping), and the right side's −h² K (vᵢ − vⱼ).
-                let dv = Padded::from(v[i] - v[j]);
-                let y = DVec3::from((dir * tension - dv * k_d) * h - stiffness.times(dv) * h2);
-                rhs[i] += y;
-                rhs[j] -= y;
-                let step = RankOne { dir, a: h2 * stiffness.a, c: h2 * stiffness.c + h * k_d };
-                self.step_matrix[s] = step;
-                let block = step.matrix();
-                diagonal[i] += block;
-                diagonal[j] += block;
-            }
-        }
-        for d in diagonal.iter_mut() {
-            *d = DMat3::from(*d).inverse().into();
-        }
-    }
-
     /// The springs at `x`, a state reached from the last linearisation: their energy and strain growth.
     pub fn measure(&self, x: &[DVec3]) -> SpringState {
-        struct Measure<'a>(&'a ClothSystem, &'a [DVec3]);
-        impl isa::Kernel for Measure<'_> {
-            type Output = SpringState;
-            #[inline(always)]
-            fn run(self) -> SpringState {
-                self.0.measure_here(self.1)
-            }
+        let springs = Springs { graph: &self.graph, params: self.params, buckling: &self.buckling, split: &self.split };
+        let pass = |range| isa::avx2(Measure { springs, range, x, length: &self.length });
+        let [first, second, across] = self.split.groups();
+        let (a, b) =
+            if self.parallel() { threads::join(|| pass(first), || pass(second)) } else { (pass(first), pass(second)) };
+        let c = pass(across);
+        SpringState {
+            energy: a.energy + b.energy + c.energy,
+            strain_jump: a.strain_jump.max(b.strain_jump).max(c.strain_jump),
         }
-        isa::avx2(Measure(self, x))
-    }
-
-    /// [`Self::measure`], compiled for whatever instruction set its caller is.
-    #[inline(always)]
-    fn measure_here(&self, x: &[DVec3]) -> SpringState {
-        let g = &self.graph;
-        // Plain loops: an iterator's `sum` is a separate function, not inlined into the kernel.
-        let (mut energy, mut strain_jump) = (0.0, 0.0f64);
-        for s in 0..g.stretch {
-            let [i, j] = g.pairs[s];
-            let r = (x[j] - x[i]).length();
-            energy += springs::stretch(r, g.rest[s], self.params.k_s).energy;
-            strain_jump = strain_jump.max((r - self.length[s]) / g.rest[s]);
-        }
-        for (&[i, j], b) in g.pairs[g.stretch..].iter().zip(&self.buckling) {
-            energy += b.energy((x[j] - x[i]).length());
-        }
-        SpringState { energy, strain_jump }
     }
 
     /// `½ Σ m̃ |v|²` minus the work of gravity `Σ m̃ g·(x − rest)`, J.
@@ -268,17 +310,199 @@ impl ClothSystem {
 }
 
 impl Operator for ClothSystem {
-    /// `out = A v` with the step's matrix `A = M̃ + h D + h² K`.
+    /// Rows `first..first + out.len()` of `A v` with the step's matrix `A = M̃ + h D + h² K`: the
+    /// springs of each side within the rows, then the crossing springs' terms on their ends within them.
     #[inline(always)]
-    fn apply_padded(&self, v: &[Padded], out: &mut [Padded]) {
-        for ((o, v), m) in out.iter_mut().zip(v).zip(&self.scaled_mass) {
-            *o = *v * *m;
+    fn apply_rows(&self, v: &[Padded], first: usize, out: &mut [Padded]) {
+        let split = &self.split;
+        let [side_first, side_second, across] = split.groups();
+        for (side, springs) in [(0..split.half, side_first), (split.half..v.len(), side_second)] {
+            if first <= side.start && side.end <= first + out.len() {
+                let (v, mass) = (&v[side.clone()], &self.scaled_mass[side.clone()]);
+                let out = &mut out[side.start - first..side.end - first];
+                for ((o, v), m) in out.iter_mut().zip(v).zip(mass) {
+                    *o = *v * *m;
+                }
+                for (&[i, j], g) in split.local[springs.clone()].iter().zip(&self.step_matrix[springs]) {
+                    let y = g.times(v[i] - v[j]);
+                    out[i] += y;
+                    out[j] -= y;
+                }
+            }
         }
-        for (&[i, j], g) in self.graph.pairs.iter().zip(&self.step_matrix) {
+        let rows = first..first + out.len();
+        for (&[i, j], g) in split.pairs[across.clone()].iter().zip(&self.step_matrix[across]) {
             let y = g.times(v[i] - v[j]);
-            out[i] += y;
-            out[j] -= y;
+            if rows.contains(&i) {
+                out[i - first] += y;
+            }
+            if rows.contains(&j) {
+                out[j - first] -= y;
+            }
         }
+    }
+
+    fn sides(&self) -> Option<usize> {
+        self.split.two_sided().then_some(self.split.half)
+    }
+}
+
+/// What the passes over the springs read.
+#[derive(Clone, Copy)]
+struct Springs<'a> {
+    graph: &'a SpringGraph,
+    params: SpringParams,
+    buckling: &'a [Buckling],
+    split: &'a Split,
+}
+
+impl Springs<'_> {
+    /// Spring `place` (in pass order) between `i` and `j`, of length `r` (`inverse = 1/r`, 0 at
+    /// `r = 0`) at `(x, v)`, for a step of `h`: its block `G` and its term `y` of the right side at `i`
+    /// (`−y` at `j`).
+    #[inline(always)]
+    fn terms(
+        &self,
+        place: usize,
+        [i, j]: [usize; 2],
+        (r, inverse): (f64, f64),
+        (x, v): (&[DVec3], &[DVec3]),
+        h: f64,
+    ) -> (RankOne, DVec3) {
+        let (s, stretch) = (self.split.springs[place], self.graph.stretch);
+        let (k_s, k_d, h2) = (self.params.k_s, self.params.k_d, h * h);
+        let dir = Padded::from(x[j] - x[i]) * inverse;
+        let (tension, stiffness) = if s < stretch {
+            // Stretched: the exact Jacobian k_s x̂x̂ᵀ + (T/r)(I − x̂x̂ᵀ). Slack (T = 0): still k_s x̂x̂ᵀ
+            // along the spring — see the module doc.
+            let tension = springs::stretch(r, self.graph.rest[s], k_s).tension;
+            (tension, RankOne { dir, a: k_s - tension * inverse, c: tension * inverse })
+        } else {
+            // Longitudinal term only (Choi & Ko), S ≥ 0.
+            let (tension, slope) = self.buckling[s - stretch].tension_stiffness(r);
+            (tension, RankOne { dir, a: slope, c: 0.0 })
+        };
+        // Force on i (spring and damping), and the right side's −h² K (vᵢ − vⱼ).
+        let dv = Padded::from(v[i] - v[j]);
+        let y = DVec3::from((dir * tension - dv * k_d) * h - stiffness.times(dv) * h2);
+        (RankOne { dir, a: h2 * stiffness.a, c: h2 * stiffness.c + h * k_d }, y)
+    }
+}
+
+/// The crossing springs linearised: their blocks and lengths into `out`'s first two (that group's
+/// entries), their terms of the right side into its third.
+struct Across<'a> {
+    springs: Springs<'a>,
+    range: Range<usize>,
+    state: (&'a [DVec3], &'a [DVec3]),
+    h: f64,
+    out: (&'a mut [RankOne], &'a mut [f64], &'a mut [DVec3]),
+}
+
+impl isa::Kernel for Across<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        let Self { springs, range, state, h, out: (step, length, force) } = self;
+        let start = range.start;
+        for (chunk, pairs) in springs.split.pairs[range].chunks(LANES).enumerate() {
+            let r = lengths(pairs, state.0);
+            for (k, &pair) in pairs.iter().enumerate() {
+                let local = chunk * LANES + k;
+                let (g, y) = springs.terms(start + local, pair, r[k], state, h);
+                (step[local], length[local], force[local]) = (g, r[k].0, y);
+            }
+        }
+    }
+}
+
+/// The crossing springs as linearised ([`Across`]), for the sides to add on their ends.
+#[derive(Clone, Copy)]
+struct Crossing<'a> {
+    pairs: &'a [[usize; 2]],
+    step: &'a [RankOne],
+    force: &'a [DVec3],
+}
+
+/// One side linearised: its rows of the right side and of the diagonal (gravity, its springs, the
+/// crossing springs' terms on its particles, then inverted), its springs' blocks and lengths.
+struct Side<'a> {
+    springs: Springs<'a>,
+    range: Range<usize>,
+    rows: Range<usize>,
+    mass: &'a [f64],
+    across: Crossing<'a>,
+    state: (&'a [DVec3], &'a [DVec3]),
+    g: DVec3,
+    h: f64,
+    out: (&'a mut [RankOne], &'a mut [f64], &'a mut [DVec3], &'a mut [PaddedMat3]),
+}
+
+impl isa::Kernel for Side<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        let Self { springs, range, rows, mass, across, state, g, h, out: (step, length, rhs, diagonal) } = self;
+        let first = rows.start;
+        for (k, (b, d)) in rhs.iter_mut().zip(diagonal.iter_mut()).enumerate() {
+            let m = mass[first + k];
+            *b = g * (h * m);
+            *d = DMat3::from_diagonal(DVec3::splat(m)).into();
+        }
+        let start = range.start;
+        for (chunk, pairs) in springs.split.pairs[range].chunks(LANES).enumerate() {
+            let r = lengths(pairs, state.0);
+            for (k, &[i, j]) in pairs.iter().enumerate() {
+                let local = chunk * LANES + k;
+                let (block, y) = springs.terms(start + local, [i, j], r[k], state, h);
+                (step[local], length[local]) = (block, r[k].0);
+                rhs[i - first] += y;
+                rhs[j - first] -= y;
+                let matrix = block.matrix();
+                diagonal[i - first] += matrix;
+                diagonal[j - first] += matrix;
+            }
+        }
+        for ((&[i, j], block), y) in across.pairs.iter().zip(across.step).zip(across.force) {
+            for (end, sign) in [(i, 1.0), (j, -1.0)] {
+                if rows.contains(&end) {
+                    rhs[end - first] += *y * sign;
+                    diagonal[end - first] += block.matrix();
+                }
+            }
+        }
+        for d in diagonal.iter_mut() {
+            *d = DMat3::from(*d).inverse().into();
+        }
+    }
+}
+
+/// The springs `range` (in pass order) at `x`: their energy and largest strain growth since `length`.
+struct Measure<'a> {
+    springs: Springs<'a>,
+    range: Range<usize>,
+    x: &'a [DVec3],
+    length: &'a [f64],
+}
+
+impl isa::Kernel for Measure<'_> {
+    type Output = SpringState;
+    #[inline(always)]
+    fn run(self) -> SpringState {
+        let Self { springs: Springs { graph, params, buckling, split }, range, x, length } = self;
+        // Plain loops: an iterator's `sum` is a separate function, not inlined into the kernel.
+        let (mut energy, mut strain_jump) = (0.0, 0.0f64);
+        for place in range {
+            let ([i, j], s) = (split.pairs[place], split.springs[place]);
+            let r = (x[j] - x[i]).length();
+            if s < graph.stretch {
+                energy += springs::stretch(r, graph.rest[s], params.k_s).energy;
+                strain_jump = strain_jump.max((r - length[place]) / graph.rest[s]);
+            } else {
+                energy += buckling[s - graph.stretch].energy(r);
+            }
+        }
+        SpringState { energy, strain_jump }
     }
 }
 
