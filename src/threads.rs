@@ -10,16 +10,18 @@
 //! step (on a pool thread) its sweeps' large colours in pieces ([`phases`]: one start of the threads
 //! for all of a sweep's colours, each thread taking the next piece, a colour's once the last one's
 //! have ended), its triangle scans in two halves and its self-collision hierarchy's refit in two
-//! subtrees ([`join`]), and [`par`] hands the same count to faer for the eigen solver's dense
+//! subtrees ([`join`]), the implicit cloth's step the two sides of its linearisation ([`join`]) and
+//! of its filtered PCG ([`pair`]: two workers for the whole solve, meeting by spinning three times
+//! an iteration), and [`par`] hands the same count to faer for the eigen solver's dense
 //! products. The evaluation's `--jobs` run one case per job, and the viewer's simulation thread steps
 //! the solver; large steps of either share the pool's threads.
 //!
 //! faer's dense products group their work by thread count, so the modal analysis and the implicit
 //! solves agree across thread counts to round-off, not to the bit (tested in `tests/threads.rs`: the
 //! creature's eigenvalues to 1e-12, an implicit step of it to 1e-12).
-//! The modal steps' halves are summed in the same order on one thread as on two, and the lanes of a
-//! position-based sweep's colour share no particle, so both kinds of step agree to the bit (tested
-//! there too).
+//! The modal and implicit cloth steps' halves are summed in the same order on one thread as on two,
+//! and the lanes of a position-based sweep's colour share no particle, so these kinds of step agree
+//! to the bit (tested there too).
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock, PoisonError};
