@@ -18,7 +18,7 @@
 //! (exactly for fully constrained particles, to round-off for projections).
 //!
 //! An operator may split its rows into two sides ([`Operator::sides`]) whose products two threads
-//! compute at once. The iteration then keeps every vector by sides: each of a [`pair`]'s workers
+//! compute at once. The iteration then keeps every vector by sides: each of a [`threads::pair`]'s workers
 //! updates its side's particles and sums its side's part of each dot product, and the workers meet
 //! after each of an iteration's three phases (the product and `cᵀq`, the updates and `δ'`, the new
 //! direction), where both add the two parts in the same order. One thread does the same sums one
@@ -131,7 +131,7 @@ pub struct Workspace {
 ///
 /// The iteration is compiled for AVX2 + FMA where the CPU has them ([`super::isa`]), with the
 /// operator inlined into it if its [`Operator::apply_rows`] is `#[inline(always)]`; an operator of two
-/// sides has them iterated by a [`pair`] of workers (call it on a pool thread kept awake:
+/// sides has them iterated by a [`threads::pair`] of workers (call it on a pool thread kept awake:
 /// [`threads::awake`]).
 #[allow(clippy::too_many_arguments)]
 pub fn solve<A: Operator>(
