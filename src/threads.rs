@@ -361,7 +361,11 @@ mod tests {
     /// instead of leaving the other at its barrier.
     #[test]
     fn a_pair_does_both_halves_and_meets_at_its_syncs() {
-        for _ in 0..200 {
+        let (mut paired, mut attempts, start) = (0, 0, std::time::Instant::now());
+        // 200 pairs, and more while none has had two workers (for up to 10 s: other tests may hold
+        // the pool's threads).
+        while attempts < 200 || (paired == 0 && threads() > 1 && start.elapsed().as_secs() < 10) {
+            attempts += 1;
             let slots = [AtomicUsize::new(0), AtomicUsize::new(0)];
             let (total, workers) = awake(true, || {
                 let workers = AtomicUsize::new(0);
@@ -380,7 +384,10 @@ mod tests {
             });
             assert_eq!(total, 3 * 50 * 51 / 2);
             assert!(workers == 1 || (workers == 2 && threads() > 1), "{workers} workers");
+            paired += usize::from(workers == 2);
         }
+        // Kept awake, the pool's other thread takes the second half (at least sometimes).
+        assert!(threads() == 1 || paired > 0, "no pair of {attempts} had two workers");
         let caught = std::panic::catch_unwind(|| {
             awake(true, || {
                 pair(|p| {

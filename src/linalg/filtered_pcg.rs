@@ -240,11 +240,11 @@ impl<'a, A: Operator> super::isa::Kernel for Iterate<'a, '_, A> {
         let Self { a, p_inv, sides, held, filters, b, vectors, out: [dv_out, residual_out], stop, sums, pair } = self;
         let [z, dv, residual, r, c, q] = vectors;
         let count = sides.len();
-        let mine: Vec<usize> = if count == 1 { vec![0] } else { pair.halves().to_vec() };
+        let mine: &[usize] = if count == 1 { &[0] } else { pair.halves() };
         // SAFETY (every `rows` and `whole` below): see the type's documentation.
         let part = |v: Shared<'a, Padded>, s: usize| unsafe { v.rows(sides[s].clone()) };
         // Δv = S Δv₀ + (I − S) z.
-        for &s in &mine {
+        for &s in mine {
             let rows = sides[s].clone();
             let (z, dv, dv_out) = (part(z, s), part(dv, s), unsafe { dv_out.rows(rows.clone()) });
             z.fill(Padded::ZERO);
@@ -267,7 +267,7 @@ impl<'a, A: Operator> super::isa::Kernel for Iterate<'a, '_, A> {
         pair.sync();
         let z = unsafe { z.whole() };
         // b̂ = S(b − A z), δ₀ = b̂ᵀP⁻¹b̂; the product kept in q, b̂ in r.
-        for &s in &mine {
+        for &s in mine {
             let rows = sides[s].clone();
             let (q, r) = (part(q, s), part(r, s));
             a.apply_rows(z, rows.start, q);
@@ -284,7 +284,7 @@ impl<'a, A: Operator> super::isa::Kernel for Iterate<'a, '_, A> {
         pair.sync();
         let delta0 = sums.total(0, count);
         if delta0 <= 0.0 {
-            for &s in &mine {
+            for &s in mine {
                 let rows = sides[s].clone();
                 let (dv, residual, q) = (part(dv, s), part(residual, s), part(q, s));
                 for (k, i) in rows.enumerate() {
@@ -295,7 +295,7 @@ impl<'a, A: Operator> super::isa::Kernel for Iterate<'a, '_, A> {
             return PcgReport::default();
         }
         // r = S(b − A Δv), c = S P⁻¹ r, δ = rᵀc.
-        for &s in &mine {
+        for &s in mine {
             let rows = sides[s].clone();
             let (residual, r, c) = (part(residual, s), part(r, s), part(c, s));
             a.apply_rows(unsafe { dv.whole() }, rows.start, residual);
@@ -315,7 +315,7 @@ impl<'a, A: Operator> super::isa::Kernel for Iterate<'a, '_, A> {
         let mut iterations = 0;
         let target = stop.tolerance * stop.tolerance * delta0.max(stop.floor);
         while delta > target && iterations < stop.max_iterations {
-            for &s in &mine {
+            for &s in mine {
                 let rows = sides[s].clone();
                 let q = part(q, s);
                 a.apply_rows(unsafe { c.whole() }, rows.start, q);
@@ -328,7 +328,7 @@ impl<'a, A: Operator> super::isa::Kernel for Iterate<'a, '_, A> {
                 break; // not positive definite on the free subspace (or broken input): stop where we are
             }
             let alpha = delta / cq;
-            for &s in &mine {
+            for &s in mine {
                 let rows = sides[s].clone();
                 let (dv, residual, r, c, q) = (part(dv, s), part(residual, s), part(r, s), part(c, s), part(q, s));
                 for (r, q) in residual.iter_mut().zip(q.iter()) {
@@ -349,7 +349,7 @@ impl<'a, A: Operator> super::isa::Kernel for Iterate<'a, '_, A> {
             pair.sync();
             let next = sums.total(1, count);
             let beta = next / delta;
-            for &s in &mine {
+            for &s in mine {
                 let rows = sides[s].clone();
                 let (c, q) = (part(c, s), part(q, s));
                 for (c, q) in c.iter_mut().zip(q.iter()) {
