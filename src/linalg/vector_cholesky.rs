@@ -204,11 +204,12 @@ impl VectorCholesky {
         }
     }
 
-    /// Whether the elimination tree was split into two halves a solve may run apart.
-    pub fn has_halves(&self) -> bool {
+    /// The ends of the elimination tree's two halves, which a solve may run apart, if it was split:
+    /// unknowns `0..a` and `a..b`, then their common ancestors (the top).
+    pub fn halves(&self) -> Option<[usize; 2]> {
         match &self.lines {
-            Lines::Short { factor, .. } => factor.halves().is_some(),
-            Lines::Long { factor, .. } => factor.halves().is_some(),
+            Lines::Short { factor, .. } => factor.halves(),
+            Lines::Long { factor, .. } => factor.halves(),
         }
     }
 }
@@ -310,7 +311,7 @@ mod tests {
         let mut reference = crate::linalg::SparseCholesky::new(a.as_ref()).unwrap();
         reference.factor(a.as_ref()).unwrap();
         let mut chol = VectorCholesky::new(a.as_ref()).unwrap();
-        assert!(chol.has_halves(), "a grid has halves");
+        assert!(chol.halves().is_some(), "a grid has halves");
         let Lines::Short { factor, .. } = &chol.lines else { panic!("16-bit indices") };
         let [first, second] = factor.halves().unwrap();
         assert!(first > n / 4 && second - first > n / 4 && n - second < n / 10, "{first} {second} of {n}");

@@ -63,12 +63,25 @@ struct Active {
 pub struct Contacts {
     state: Vec<ContactState>,
     active: Vec<Active>,
+    /// Scratch: the second half's constraints and contacts while the halves are searched at once.
+    later: (Vec<Constraint>, Vec<Active>),
+}
+
+/// What a search for contacts reads: the bodies where they are, the particles, the step.
+struct Search<'a> {
+    placed: &'a [Placed<'a>],
+    params: ContactParams,
+    x: &'a [DVec3],
+    v: &'a [DVec3],
+    held: &'a [bool],
+    masses: &'a [f64],
+    h: f64,
 }
 
 impl Contacts {
     /// No contacts, for `n` particles.
     pub fn new(n: usize) -> Self {
-        Self { state: vec![ContactState::Free; n], active: Vec::new() }
+        Self { state: vec![ContactState::Free; n], active: Vec::new(), later: Default::default() }
     }
 
     /// Forget every contact.
@@ -79,7 +92,9 @@ impl Contacts {
 
     /// Find the contacts of particles at `x` with velocities `v` against `bodies` at time `t`, push their
     /// constraints, and add kinetic friction's impulse over the step of `h` to the step's right side
-    /// `rhs`. Particles with `held[i]` are skipped.
+    /// `rhs`. Particles with `held[i]` are skipped. With `halves`, the two halves of the particles are
+    /// searched at once ([`crate::threads::join`]) and their constraints pushed first half first: the
+    /// same constraints in the same order as one search.
     #[allow(clippy::too_many_arguments)]
     pub fn constrain(
         &mut self,
@@ -90,55 +105,30 @@ impl Contacts {
         masses: &[f64],
         rhs: &mut [DVec3],
         constraints: &mut Vec<Constraint>,
+        halves: bool,
     ) {
         self.active.clear();
         if bodies.is_empty() {
             return;
         }
         let placed: Vec<Placed<'_>> = bodies.iter().map(|b| b.at(t)).collect();
-        for i in 0..x.len() {
-            if held[i] {
-                self.state[i] = ContactState::Free;
-                continue;
-            }
-            let Some(c) = nearest(&placed, x[i]) else { continue };
-            let rel = v[i] - c.velocity;
-            let vn = rel.dot(c.normal);
-            let near = c.distance < params.margin || c.distance + h * vn < params.margin;
-            let state = match (self.state[i], near) {
-                (_, false) => ContactState::Free,
-                (ContactState::Released, true) if c.distance >= 0.0 && vn >= 0.0 => ContactState::Released,
-                (ContactState::Free | ContactState::Released, true) if params.mu_s > 0.0 => ContactState::Stuck,
-                // Without friction, locking would hand the particle the body's tangential velocity.
-                (ContactState::Free | ContactState::Released, true) => ContactState::Sliding(0.0),
-                (s, true) => s,
-            };
-            self.state[i] = state;
-            let target = (c.distance.clamp(0.0, params.margin) - c.distance) / h;
-            let n = c.normal;
-            match state {
-                ContactState::Free | ContactState::Released => {}
-                ContactState::Stuck => {
-                    let z = c.velocity + n * target - v[i];
-                    constraints.push(Constraint { particle: i, filter: DMat3::ZERO, z });
-                    self.active.push(Active { particle: i, normal: n, stopped: false });
-                }
-                ContactState::Sliding(normal_force) => {
-                    let z = n * (c.velocity.dot(n) + target - v[i].dot(n));
-                    constraints.push(Constraint { particle: i, filter: DMat3::IDENTITY - outer(n, n), z });
-                    let tangential = rel - n * vn;
-                    let speed = tangential.length();
-                    let mut stopped = false;
-                    if speed > 0.0 {
-                        let limit = masses[i] * speed / h;
-                        let friction = params.mu_k * normal_force.max(0.0);
-                        stopped = friction >= limit;
-                        rhs[i] -= tangential * (friction.min(limit) * h / speed);
-                    }
-                    self.active.push(Active { particle: i, normal: n, stopped });
-                }
-            }
+        let search = Search { placed: &placed, params, x, v, held, masses, h };
+        let Self { state, active, later } = self;
+        if !halves {
+            search.run(0, state, rhs, constraints, active);
+            return;
         }
+        let half = x.len() / 2;
+        let (first_state, second_state) = state.split_at_mut(half);
+        let (first_rhs, second_rhs) = rhs.split_at_mut(half);
+        later.0.clear();
+        later.1.clear();
+        crate::threads::join(
+            || search.run(0, first_state, first_rhs, constraints, active),
+            || search.run(half, second_state, second_rhs, &mut later.0, &mut later.1),
+        );
+        constraints.append(&mut later.0);
+        active.append(&mut later.1);
     }
 
     /// Decide the next states from the solve's residual `b − A Δv` (per particle), whose constrained
@@ -159,8 +149,131 @@ impl Contacts {
     }
 }
 
+impl Search<'_> {
+    /// The contacts of the particles `first..first + state.len()` (whose states and right sides are
+    /// `state` and `rhs`), their constraints pushed to `constraints` and `active`.
+    fn run(
+        &self,
+        first: usize,
+        state: &mut [ContactState],
+        rhs: &mut [DVec3],
+        constraints: &mut Vec<Constraint>,
+        active: &mut Vec<Active>,
+    ) {
+        let Self { placed, params, x, v, held, masses, h } = *self;
+        for (k, (state, rhs)) in state.iter_mut().zip(rhs).enumerate() {
+            let i = first + k;
+            if held[i] {
+                *state = ContactState::Free;
+                continue;
+            }
+            let Some(c) = nearest(placed, x[i]) else { continue };
+            let rel = v[i] - c.velocity;
+            let vn = rel.dot(c.normal);
+            let near = c.distance < params.margin || c.distance + h * vn < params.margin;
+            *state = match (*state, near) {
+                (_, false) => ContactState::Free,
+                (ContactState::Released, true) if c.distance >= 0.0 && vn >= 0.0 => ContactState::Released,
+                (ContactState::Free | ContactState::Released, true) if params.mu_s > 0.0 => ContactState::Stuck,
+                // Without friction, locking would hand the particle the body's tangential velocity.
+                (ContactState::Free | ContactState::Released, true) => ContactState::Sliding(0.0),
+                (s, true) => s,
+            };
+            let target = (c.distance.clamp(0.0, params.margin) - c.distance) / h;
+            let n = c.normal;
+            match *state {
+                ContactState::Free | ContactState::Released => {}
+                ContactState::Stuck => {
+                    let z = c.velocity + n * target - v[i];
+                    constraints.push(Constraint { particle: i, filter: DMat3::ZERO, z });
+                    active.push(Active { particle: i, normal: n, stopped: false });
+                }
+                ContactState::Sliding(normal_force) => {
+                    let z = n * (c.velocity.dot(n) + target - v[i].dot(n));
+                    constraints.push(Constraint { particle: i, filter: DMat3::IDENTITY - outer(n, n), z });
+                    let tangential = rel - n * vn;
+                    let speed = tangential.length();
+                    let mut stopped = false;
+                    if speed > 0.0 {
+                        let limit = masses[i] * speed / h;
+                        let friction = params.mu_k * normal_force.max(0.0);
+                        stopped = friction >= limit;
+                        *rhs -= tangential * (friction.min(limit) * h / speed);
+                    }
+                    active.push(Active { particle: i, normal: n, stopped });
+                }
+            }
+        }
+    }
+}
+
 /// Where `x` is relative to the body it is closest to (by signed distance); `None` without bodies.
 fn nearest(bodies: &[Placed<'_>], x: DVec3) -> Option<Contact> {
     let (body, (distance, normal)) = bodies.iter().map(|b| (b, b.surface(x))).min_by(|a, b| a.1.0.total_cmp(&b.1.0))?;
     Some(Contact { distance, normal, velocity: body.velocity_at(x) })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::collision::{Motion, Shape};
+
+    #[test]
+    fn the_halves_searched_apart_give_the_contacts_of_one_search() {
+        // Particles around a moving, spinning ball over a floor, near and far, arriving and leaving,
+        // in every state: the same constraints in the same order, states and right side, searched
+        // whole and in two halves.
+        let ball = Motion { velocity: DVec3::new(0.2, 0.0, 0.0), spin: DVec3::new(0.0, 3.0, 0.0), ..Motion::default() };
+        let bodies = [
+            Body::scripted(Shape::Sphere { radius: 0.25 }, DVec3::new(0.0, 0.3, 0.0), ball),
+            Body::scripted(Shape::Plane { normal: DVec3::Y }, DVec3::ZERO, Motion::default()),
+        ];
+        let n = 301;
+        let x: Vec<DVec3> = (0..n)
+            .map(|i| {
+                let (a, b) = (0.37 * i as f64, 0.11 * i as f64);
+                DVec3::new(a.cos() * b.sin(), b.cos(), a.sin() * b.sin()) * (0.2 + 0.002 * (i % 70) as f64)
+                    + DVec3::new(0.0, 0.3 - 0.001 * (i % 3) as f64, 0.0)
+            })
+            .collect();
+        let v: Vec<DVec3> = (0..n).map(|i| DVec3::new((0.9 * i as f64).sin(), -0.5, 0.3) * 0.4).collect();
+        let held: Vec<bool> = (0..n).map(|i| i % 17 == 0).collect();
+        let masses = vec![1e-3; n];
+        let params = ContactParams { margin: 0.01, mu_s: 0.5, mu_k: 0.4 };
+        let states = [ContactState::Free, ContactState::Stuck, ContactState::Sliding(0.02), ContactState::Released];
+        let searched: Vec<_> = [false, true]
+            .map(|halves| {
+                let mut contacts = Contacts::new(n);
+                contacts.state.iter_mut().enumerate().for_each(|(i, s)| *s = states[i % 4]);
+                let (mut rhs, mut constraints) = (vec![DVec3::ONE; n], Vec::new());
+                contacts.constrain(
+                    &bodies,
+                    params,
+                    (&x, &v, &held),
+                    (0.1, 0.01),
+                    &masses,
+                    &mut rhs,
+                    &mut constraints,
+                    halves,
+                );
+                let active: Vec<(usize, DVec3, bool)> =
+                    contacts.active.iter().map(|a| (a.particle, a.normal, a.stopped)).collect();
+                (contacts.state, rhs, constraints, active)
+            })
+            .into_iter()
+            .collect();
+        let (whole, halves) = (&searched[0], &searched[1]);
+        let kinds = |s: &[ContactState], k: fn(&ContactState) -> bool| s.iter().filter(|s| k(s)).count();
+        let (stuck, sliding) = (
+            kinds(&whole.0, |s| *s == ContactState::Stuck),
+            kinds(&whole.0, |s| matches!(s, ContactState::Sliding(_))),
+        );
+        assert!(
+            stuck > 10 && sliding > 10 && whole.2.len() < n / 2,
+            "{stuck} stuck, {sliding} sliding, {} constrained",
+            whole.2.len()
+        );
+        assert!(whole.1.iter().any(|r| *r != DVec3::ONE), "friction acted");
+        assert_eq!(whole, halves);
+    }
 }

@@ -314,6 +314,7 @@ impl Cloth {
             self.system.scaled_masses(),
             &mut step.rhs,
             &mut step.constraints,
+            self.system.parallel(),
         );
         step.error_floor = self.system.scaled_masses().iter().sum::<f64>() * VELOCITY_FLOOR * VELOCITY_FLOOR;
     }

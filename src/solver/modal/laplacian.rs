@@ -28,6 +28,9 @@ use crate::linalg::padded::Padded;
 use crate::mesh::TriMesh;
 use crate::solver::SolverError;
 
+/// Placing at least this many vertices goes in two halves at once ([`EdgeLaplacian::positions`]).
+pub const HALVES: usize = 4096;
+
 /// Marks a vertex that is not an unknown of `L` (anchored, or a gauge vertex), or is in no gauge.
 pub const NONE: u32 = u32::MAX;
 
@@ -118,7 +121,13 @@ impl EdgeLaplacian {
 
     /// Whether a solve goes in two halves (of the factor's elimination tree).
     pub fn splits(&self) -> bool {
-        self.factor.has_halves()
+        self.halves().is_some()
+    }
+
+    /// The ends of the two halves of the unknowns a solve runs apart (`0..a`, `a..b`; the rest, their
+    /// common top, after both), if it has them: no edge joins the two halves.
+    pub fn halves(&self) -> Option<[usize; 2]> {
+        self.factor.halves()
     }
 
     /// Entries of the Cholesky factor.
@@ -141,20 +150,28 @@ impl EdgeLaplacian {
         self.gauge_of.get(v).filter(|&&g| g != NONE).map(|&g| g as usize)
     }
 
-    /// The right side `b`, one 3-vector per unknown, to fill before [`EdgeLaplacian::displacements`].
+    /// The right side `b`, one 3-vector per unknown, to fill before [`EdgeLaplacian::positions`].
     pub fn rhs_mut(&mut self) -> &mut [Padded] {
         self.factor.rhs_mut()
     }
 
     /// Solve `L u = b` for the right side filled in [`EdgeLaplacian::rhs_mut`] and write every
-    /// vertex's displacement into `u` (zero at anchors), each anchorless component translated so that
-    /// its centroid moves by `centroids[g]` (one per gauge).
-    pub fn displacements(&mut self, centroids: &[DVec3], u: &mut [DVec3]) {
-        self.solve_into(u);
-        for (g, mu) in self.gauges.iter().zip(centroids) {
-            let mean: DVec3 = g.vertices.iter().zip(&g.weights).map(|(&v, w)| u[v] * *w).sum();
-            g.vertices.iter().for_each(|&v| u[v] += *mu - mean);
-        }
+    /// vertex's position `rest + u` into `out` (`u` zero at anchors), each anchorless component
+    /// translated so that its centroid moves by `centroids[g]` (one per gauge). The vertices go in
+    /// two halves at once ([`crate::threads::halves`]) from [`HALVES`] on.
+    pub fn positions(&mut self, centroids: &[DVec3], rest: &[DVec3], out: &mut [DVec3]) {
+        self.factor.solve();
+        let (x, unknown, gauge_of) = (self.factor.solution(), &self.unknown, &self.gauge_of);
+        let u = |v: usize| x.get(unknown[v] as usize).map_or(DVec3::ZERO, |&x| DVec3::from(x));
+        let shifts: Vec<DVec3> = (self.gauges.iter().zip(centroids))
+            .map(|(g, mu)| *mu - g.vertices.iter().zip(&g.weights).map(|(&v, w)| u(v) * *w).sum::<DVec3>())
+            .collect();
+        crate::threads::halves(out, HALVES, |first, part| {
+            for (v, p) in (first..).zip(part) {
+                let shift = shifts.get(gauge_of[v] as usize);
+                *p = rest[v] + shift.map_or(u(v), |s| u(v) + *s);
+            }
+        });
     }
 
     /// The adjoint of the reconstruction for per-vertex forces `f`: `y` per vertex (zero where
@@ -223,7 +240,7 @@ mod tests {
             .collect();
         compatible_rhs(&mesh, &mut lap, &v);
         let mut u = vec![DVec3::ONE; v.len()];
-        lap.displacements(&[], &mut u);
+        lap.positions(&[], &vec![DVec3::ZERO; u.len()], &mut u);
         let worst = u.iter().zip(&v).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
         eprintln!("anchored grid: compatible field reproduced to {worst:.1e}");
         assert!(worst < 1e-12, "{worst}");
@@ -236,7 +253,7 @@ mod tests {
         let mean: DVec3 = g.vertices.iter().zip(&g.weights).map(|(&i, w)| v[i] * *w).sum();
         compatible_rhs(&mesh, &mut lap, &v);
         let mut u = vec![DVec3::ZERO; v.len()];
-        lap.displacements(&[mean], &mut u);
+        lap.positions(&[mean], &vec![DVec3::ZERO; u.len()], &mut u);
         let worst = u.iter().zip(&v).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
         eprintln!("free sphere: compatible field reproduced to {worst:.1e}");
         assert!(worst < 1e-12, "{worst}");
@@ -256,7 +273,7 @@ mod tests {
             let mu: Vec<DVec3> = lap.gauges().iter().map(|_| DVec3::new(0.1, -0.2, 0.3)).collect();
             lap.rhs_mut().iter_mut().zip(&b).for_each(|(r, b)| *r = (*b).into());
             let mut u = vec![DVec3::ZERO; n];
-            lap.displacements(&mu, &mut u);
+            lap.positions(&mu, &vec![DVec3::ZERO; n], &mut u);
             let work: f64 = f.iter().zip(&u).map(|(a, b)| a.dot(*b)).sum();
             let (y, net) = lap.adjoint(&f);
             let yb: f64 = (0..n)

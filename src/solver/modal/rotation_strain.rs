@@ -105,8 +105,6 @@ pub struct RotationStrain {
     stiffness: Option<DMatrix<f64>>,
     /// Per mode: the largest triangle rotation a unit of it makes, rad.
     scales: Vec<f64>,
-    /// Scratch: the displacements.
-    u: Vec<DVec3>,
     /// Scratch: the second half of the pass's right side.
     scratch: Vec<Padded>,
 }
@@ -117,11 +115,10 @@ impl RotationStrain {
     pub fn new(mesh: &TriMesh, anchors: &[usize], basis: &ModalBasis) -> Result<Self, SolverError> {
         let laplacian = EdgeLaplacian::new(mesh, anchors)?;
         let rest = mesh.positions().to_vec();
-        let pass = TrianglePass::new(&rest, mesh.triangles(), laplacian.unknowns(), basis);
+        let pass = TrianglePass::new(&rest, mesh.triangles(), laplacian.unknowns(), laplacian.halves(), basis);
         let mut rs = Self {
             loads: Vec::new(),
             net: vec![DVec3::ZERO; laplacian.gauges().len()],
-            u: vec![DVec3::ZERO; rest.len()],
             scratch: Vec::new(),
             centroid_modes: Vec::new(),
             drags: Vec::new(),
@@ -236,10 +233,7 @@ impl RotationStrain {
     fn place(&mut self, q: &[f64], positions: &mut [DVec3]) {
         let centroids: Vec<DVec3> =
             (self.centroid_modes.iter()).map(|modes| modes.iter().zip(q).map(|(c, qj)| *c * *qj).sum()).collect();
-        self.laplacian.displacements(&centroids, &mut self.u);
-        for ((x, rest), u) in positions.iter_mut().zip(&self.rest).zip(&self.u) {
-            *x = *rest + *u;
-        }
+        self.laplacian.positions(&centroids, &self.rest, positions);
     }
 
     /// The trust region of a step `dq` under a position drag (module documentation): the factor (at

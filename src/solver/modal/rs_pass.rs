@@ -36,11 +36,15 @@
 //! Triangles go [`LANES`] at a time, every quantity a SIMD vector across them (compiled for the CPU's
 //! best instruction set, as in [`super::kernel`]); only the scatter of `b` is per triangle.
 //!
-//! **Two halves.** From [`SPLIT`] triangles on, the chunks are cut in two halves, each summing its
-//! own force and drag rows and scattering into its own right side (the second into a scratch over
-//! the range of unknowns its triangles touch); the second half's sums are then added to the
-//! first's ([`crate::threads::join_sum`]). With more than one thread ([`crate::threads`]) the halves
-//! run at once; on one they run in turn, so that the sums do not depend on the thread count.
+//! **Two halves.** From [`SPLIT`] triangles on, where the reconstruction's solve has two halves of
+//! its unknowns (`0..a` and `a..b`, joined by no edge, then their common top `b..`;
+//! [`super::laplacian::EdgeLaplacian::halves`]), the triangles are cut along them: first those with a
+//! corner in the first half, then those with a corner in the second (a triangle with corners only
+//! in the top goes with the smaller group). Each half of the chunks sums its own force and drag
+//! rows and scatters into its own unknowns of the right side; what the second half adds to the
+//! top's unknowns goes to a scratch, added to the first's when both are done, and so do its sums
+//! ([`crate::threads::join_sum`]). With more than one thread ([`crate::threads`]) the halves run at
+//! once; on one they run in turn, so that the sums do not depend on the thread count.
 
 use std::ops::Range;
 
@@ -90,12 +94,13 @@ pub struct TrianglePass {
     inner: Option<usize>,
     /// The first chunk of the second half (module documentation).
     half: usize,
-    /// The unknowns the second half's triangles touch lie in this range.
-    second_unknowns: Range<usize>,
+    /// The ends of the two halves of the unknowns when the pass goes in halves.
+    unknown_halves: Option<[usize; 2]>,
 }
 
 /// Where a pass writes the right side of the reconstruction: the system's own, and a scratch for
-/// the second half of the triangles (module documentation), kept between passes.
+/// what the second half of the triangles adds to the top's unknowns (module documentation), kept
+/// between passes.
 #[derive(Debug)]
 pub struct RightSide<'a> {
     /// One 3-vector per unknown.
@@ -118,13 +123,20 @@ pub struct DragRows {
 impl TrianglePass {
     /// The triangles with a free corner (`unknowns` from the reconstruction's system; the others
     /// never move), with the modal rows of `basis`.
-    pub fn new(rest: &[DVec3], triangles: &[[usize; 3]], unknowns: &[u32], basis: &ModalBasis) -> Self {
+    pub fn new(
+        rest: &[DVec3],
+        triangles: &[[usize; 3]],
+        unknowns: &[u32],
+        halves: Option<[usize; 2]>,
+        basis: &ModalBasis,
+    ) -> Self {
         let moving: Vec<[usize; 3]> =
             triangles.iter().filter(|t| t.iter().any(|&v| unknowns[v] != NONE)).copied().collect();
+        let (order, half, unknown_halves) = cut(&moving, unknowns, halves);
         let empty = Chunk { unknowns: [[NONE; LANES]; 3], frame: [[0.0; LANES]; 6], s: [[0.0; LANES]; 6] };
-        let mut chunked = vec![empty; chunks(moving.len())];
+        let mut chunked = vec![empty; order.len().div_ceil(LANES)];
         let mut corners = vec![[[0; LANES]; 3]; chunked.len()];
-        for (i, t) in moving.iter().enumerate() {
+        for (i, t) in order.iter().enumerate().filter_map(|(i, t)| Some((i, (*t)?))) {
             let (chunk, lane) = (&mut chunked[i / LANES], i % LANES);
             let [a, b, c] = t.map(|v| rest[v]);
             let normal = (b - a).cross(c - a);
@@ -138,12 +150,6 @@ impl TrianglePass {
                 (chunk.frame[k][lane], chunk.frame[3 + k][lane]) = (frame[0][k], frame[1][k]);
             }
         }
-        let half = if moving.len() >= SPLIT { chunked.len() / 2 } else { chunked.len() };
-        let touched = || chunked[half..].iter().flat_map(|c| c.unknowns.iter().flatten()).filter(|&&u| u != NONE);
-        let second_unknowns = match (touched().min(), touched().max()) {
-            (Some(&lo), Some(&hi)) => lo as usize..hi as usize + 1,
-            _ => 0..0,
-        };
         let mut pass = Self {
             chunks: chunked,
             corners,
@@ -152,7 +158,7 @@ impl TrianglePass {
             rows: Vec::new(),
             inner: None,
             half,
-            second_unknowns,
+            unknown_halves,
         };
         pass.set_basis(rest, basis);
         pass
@@ -164,7 +170,7 @@ impl TrianglePass {
         self.modes = m;
         self.rows = vec![[0.0; LANES]; 6 * m * self.chunks.len()];
         for (c, (chunk, vertices)) in self.chunks.iter().zip(&self.corners).enumerate() {
-            for lane in (0..LANES).filter(|&l| c * LANES + l < self.triangles) {
+            for lane in (0..LANES).filter(|&l| chunk.unknowns.iter().any(|u| u[l] != NONE)) {
                 let corners = [0, 1, 2].map(|k| vertices[k][lane]);
                 let x = corners.map(|v| rest[v]);
                 let jacobian = triangle_jacobian(x);
@@ -265,31 +271,40 @@ impl TrianglePass {
     pub fn run(
         &self,
         q: &[f64],
-        mut loads: Option<(&[Moments], &mut [f64])>,
+        loads: Option<(&[Moments], &mut [f64])>,
         rhs: Option<RightSide<'_>>,
         drags: &mut [DragRows],
     ) {
-        let (mut rhs, mut scratch) = match rhs {
-            Some(RightSide { rhs, scratch }) => {
-                scratch.clear();
-                scratch.resize(self.second_unknowns.len(), Padded::ZERO);
-                (Some(rhs), Some(scratch))
-            }
-            None => (None, None),
-        };
         let rows = &*drags;
         let moments = loads.as_ref().map(|(m, _)| *m);
         let half =
             |chunks, rhs| pulp::Arch::new().dispatch(Pass { pass: self, q, loads: moments, chunks, rhs, drags: rows });
-        let start = self.second_unknowns.start;
-        let (first_rhs, second_rhs) =
-            (rhs.as_deref_mut().map(|r| (r, 0)), scratch.as_deref_mut().map(|s| (&mut s[..], start)));
-        let first = || half(0..self.half, first_rhs);
-        let second = || half(self.half..self.chunks.len(), second_rhs);
-        let sums = if self.splits() { crate::threads::join_sum(first, second) } else { first() };
-        if let (Some(rhs), Some(scratch)) = (rhs, scratch) {
-            rhs[self.second_unknowns.clone()].iter_mut().zip(scratch.iter()).for_each(|(b, s)| *b += *s);
-        }
+        let all = 0..self.chunks.len();
+        let (first, second) = (all.start..self.half, self.half..all.end);
+        let sums = match (rhs, self.unknown_halves) {
+            (Some(RightSide { rhs, scratch }), Some([a, b])) => {
+                scratch.clear();
+                scratch.resize(rhs.len() - b, Padded::ZERO);
+                let (low, top) = rhs.split_at_mut(b);
+                let (first_own, second_own) = low.split_at_mut(a);
+                let first_rhs = Target { own: (first_own, 0), top: (&mut *top, b) };
+                let second_rhs = Target { own: (second_own, a), top: (&mut scratch[..], b) };
+                let sums = crate::threads::join_sum(|| half(first, Some(first_rhs)), || half(second, Some(second_rhs)));
+                top.iter_mut().zip(scratch.iter()).for_each(|(t, s)| *t += *s);
+                sums
+            }
+            (Some(RightSide { rhs, .. }), None) => {
+                let end = rhs.len();
+                half(all, Some(Target { own: (rhs, 0), top: (&mut [], end) }))
+            }
+            (None, Some(_)) => crate::threads::join_sum(|| half(first, None), || half(second, None)),
+            (None, None) => half(all, None),
+        };
+        self.finish(loads, drags, sums)
+    }
+
+    /// The end of [`TrianglePass::run`]: its sums handed out, the force then each drag's rows.
+    fn finish(&self, mut loads: Option<(&[Moments], &mut [f64])>, drags: &mut [DragRows], sums: Vec<f64>) {
         if let Some((_, force)) = loads.as_mut() {
             force.copy_from_slice(&sums[..self.modes]);
         }
@@ -297,6 +312,45 @@ impl TrianglePass {
             drag.rows.copy_from_slice(rows);
         }
     }
+}
+
+/// The triangles in pass order, `None` where a chunk is padded, the first chunk of the second half,
+/// and the ends of the unknowns' halves if the pass goes in two (module documentation, *Two halves*).
+#[allow(clippy::type_complexity)]
+fn cut(
+    moving: &[[usize; 3]],
+    unknowns: &[u32],
+    halves: Option<[usize; 2]>,
+) -> (Vec<Option<[usize; 3]>>, usize, Option<[usize; 2]>) {
+    let whole = || (moving.iter().copied().map(Some).collect::<Vec<_>>(), chunks(moving.len()), None);
+    let Some([a, b]) = halves.filter(|_| moving.len() >= SPLIT) else { return whole() };
+    // 0 or 1: the half of the unknowns the triangle has a corner in; 2: only the top's; 3: both
+    // halves' (which their having no edge in common rules out; then the pass stays whole).
+    let side = |t: &[usize; 3]| {
+        let of = |v: usize| match unknowns[v] as usize {
+            u if u < a => 1,
+            u if u < b => 2,
+            _ => 0,
+        };
+        match t.iter().fold(0, |sides, &v| sides | of(v)) {
+            0 => 2,
+            sides => sides - 1,
+        }
+    };
+    let sides: Vec<usize> = moving.iter().map(side).collect();
+    if sides.contains(&3) {
+        return whole();
+    }
+    let count = |k| sides.iter().filter(|&&s| s == k).count();
+    let top_with = usize::from(count(0) > count(1));
+    let group = |k: usize| {
+        (moving.iter().zip(&sides)).filter(move |(_, s)| **s == k || (**s == 2 && k == top_with)).map(|(t, _)| Some(*t))
+    };
+    let mut order: Vec<Option<[usize; 3]>> = group(0).collect();
+    order.resize(order.len().next_multiple_of(LANES), None);
+    let half = order.len() / LANES;
+    order.extend(group(1));
+    (order, half, halves)
 }
 
 /// The arguments of one half of [`TrianglePass::run`], for the dispatch to the best instruction set:
@@ -307,8 +361,26 @@ struct Pass<'a> {
     q: &'a [f64],
     loads: Option<&'a [Moments]>,
     chunks: Range<usize>,
-    rhs: Option<(&'a mut [Padded], usize)>,
+    rhs: Option<Target<'a>>,
     drags: &'a [DragRows],
+}
+
+/// Where one half of a pass scatters the right side: its own unknowns and the top's, each a slice
+/// with the unknown at its start (the top's from the first unknown past its own).
+struct Target<'a> {
+    own: (&'a mut [Padded], usize),
+    top: (&'a mut [Padded], usize),
+}
+
+impl Target<'_> {
+    /// Unknown `u`'s entry, if it is one of this target's.
+    #[inline(always)]
+    fn get_mut(&mut self, u: u32) -> Option<&mut Padded> {
+        let u = u as usize;
+        let (part, start) =
+            if u >= self.top.1 { (&mut *self.top.0, self.top.1) } else { (&mut *self.own.0, self.own.1) };
+        u.checked_sub(start).and_then(|i| part.get_mut(i))
+    }
 }
 
 impl pulp::WithSimd for Pass<'_> {
@@ -324,8 +396,9 @@ impl pulp::WithSimd for Pass<'_> {
         let qs: Vec<S::f64s> = q.iter().map(|&x| simd.splat_f64s(x)).collect();
         // Accumulators, one SIMD vector per group and mode: the force, then each drag's three rows.
         let mut acc = vec![zero; m * groups * (1 + 3 * drags.len())];
-        if let Some((rhs, _)) = rhs.as_mut() {
-            rhs.fill(Padded::ZERO);
+        if let Some(rhs) = rhs.as_mut() {
+            rhs.own.0.fill(Padded::ZERO);
+            rhs.top.0.fill(Padded::ZERO);
         }
         for c in chunks {
             let (chunk, load) = (&pass.chunks[c], loads.map(|l| &l[c]));
@@ -357,10 +430,10 @@ impl pulp::WithSimd for Pass<'_> {
                     }
                 }
             }
-            if let Some((rhs, start)) = rhs.as_mut() {
+            if let Some(rhs) = rhs.as_mut() {
                 for (k, out) in change.iter().enumerate() {
                     for (lane, &u) in chunk.unknowns[k].iter().enumerate() {
-                        if let Some(b) = (u as usize).checked_sub(*start).and_then(|i| rhs.get_mut(i)) {
+                        if let Some(b) = rhs.get_mut(u) {
                             *b += Padded::from(DVec3::new(out[0][lane], out[1][lane], out[2][lane]));
                         }
                     }
@@ -595,5 +668,73 @@ impl<S: Simd> Triangle<S> {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::generate::grid;
+    use crate::solver::modal::laplacian::EdgeLaplacian;
+
+    #[test]
+    fn a_pass_cut_along_the_solves_halves_gives_what_the_whole_pass_does() {
+        // A sheet clamped along one side, large enough for the reconstruction's solve to have halves
+        // and the pass to go in two: its right side, force and drag rows against the same pass whole.
+        let mesh = grid([1.0, 0.75], [80, 60]).unwrap();
+        let rest = mesh.positions();
+        let anchors: Vec<usize> = (0..rest.len()).filter(|&v| rest[v].x < -0.49).collect();
+        let laplacian = EdgeLaplacian::new(&mesh, &anchors).unwrap();
+        let [a, b] = laplacian.halves().expect("the solve has halves");
+        let shapes: Vec<Vec<DVec3>> = (0..3)
+            .map(|j| {
+                let s = |p: DVec3| (p.x + 0.5).powi(j + 2);
+                let field = |p: DVec3| DVec3::new(0.3 * (p.y * (j + 1) as f64).sin(), 0.2 * p.x * p.y, 1.0) * s(p);
+                rest.iter()
+                    .enumerate()
+                    .map(|(v, p)| if anchors.contains(&v) { DVec3::ZERO } else { field(*p) })
+                    .collect()
+            })
+            .collect();
+        let basis = ModalBasis::new(&mesh, vec![1.0, 4.0, 9.0], &shapes);
+        let unknowns = laplacian.unknowns();
+        let passes =
+            [Some([a, b]), None].map(|halves| TrianglePass::new(rest, mesh.triangles(), unknowns, halves, &basis));
+        assert!(passes[0].splits() && !passes[1].splits());
+        let y: Vec<DVec3> = (0..rest.len()).map(|v| DVec3::new((0.3 * v as f64).sin(), -1.0, 0.2)).collect();
+        let z: Vec<f64> = (0..rest.len()).map(|v| (0.11 * v as f64).cos()).collect();
+        let q = [1.2, -0.7, 0.5];
+        let results: Vec<(Vec<Padded>, Vec<f64>, Vec<f64>)> = passes
+            .iter()
+            .map(|pass| {
+                let (mut rhs, mut scratch, mut force) = (vec![Padded::ZERO; laplacian.dim()], Vec::new(), vec![0.0; 3]);
+                let mut drags = [pass.drag_rows(rest.len() - 1, &z)];
+                let loads = pass.moments(&y);
+                pass.run(
+                    &q,
+                    Some((&loads, &mut force)),
+                    Some(RightSide { rhs: &mut rhs, scratch: &mut scratch }),
+                    &mut drags,
+                );
+                let [drag] = drags;
+                (rhs, force, drag.rows)
+            })
+            .collect();
+        let [(cut_rhs, cut_force, cut_rows), (rhs, force, rows)] = [results[0].clone(), results[1].clone()];
+        let largest = rhs.iter().map(|b| DVec3::from(*b).length()).fold(0.0, f64::max);
+        let worst =
+            cut_rhs.iter().zip(&rhs).map(|(c, w)| (DVec3::from(*c) - DVec3::from(*w)).length()).fold(0.0, f64::max);
+        let top = rhs[b..].iter().filter(|t| DVec3::from(**t).length() > 1e-3 * largest).count();
+        eprintln!(
+            "right side: {} unknowns, halves {a} and {}, top {}; worst {worst:.1e} of {largest:.1e}",
+            rhs.len(),
+            b - a,
+            rhs.len() - b
+        );
+        assert!(top > 0, "the top's unknowns take terms");
+        assert!(worst <= 1e-13 * largest, "{worst} of {largest}");
+        for (cut, whole) in cut_force.iter().chain(&cut_rows).zip(force.iter().chain(&rows)) {
+            assert!((cut - whole).abs() <= 1e-12 * whole.abs().max(1.0), "{cut} against {whole}");
+        }
     }
 }
