@@ -207,9 +207,19 @@ impl Search<'_> {
     }
 }
 
-/// Where `x` is relative to the body it is closest to (by signed distance); `None` without bodies.
+/// Where `x` is relative to the body it is closest to (by signed distance, the first of equals;
+/// `total_cmp`'s order, so that a distance that is not a number loses); `None` without bodies. A
+/// plain loop: as an iterator's `min_by`, its running minimum went through memory at every body.
+#[inline(always)]
 fn nearest(bodies: &[Placed<'_>], x: DVec3) -> Option<Contact> {
-    let (body, (distance, normal)) = bodies.iter().map(|b| (b, b.surface(x))).min_by(|a, b| a.1.0.total_cmp(&b.1.0))?;
+    let mut best: Option<(&Placed<'_>, f64, DVec3)> = None;
+    for body in bodies {
+        let (distance, normal) = body.surface(x);
+        if best.is_none_or(|(_, least, _)| distance.total_cmp(&least).is_lt()) {
+            best = Some((body, distance, normal));
+        }
+    }
+    let (body, distance, normal) = best?;
     Some(Contact { distance, normal, velocity: body.velocity_at(x) })
 }
 
