@@ -10,8 +10,8 @@
 //! step (on a pool thread) its sweeps' large colours in pieces ([`phases`]: one start of the threads
 //! for all of a sweep's colours, each thread taking the next piece, a colour's once the last one's
 //! have ended), its triangle scans in two halves and its self-collision hierarchy's refit in two
-//! subtrees ([`join`]), the implicit cloth's step the two sides of its linearisation ([`join`]) and
-//! of its filtered PCG ([`pair`]: two workers for the whole solve, meeting by spinning three times
+//! subtrees ([`join`]), the implicit cloth's step the two sides of its linearisation and its contact
+//! search ([`join`]) and of its filtered PCG ([`pair`]: two workers for the whole solve, meeting by spinning three times
 //! an iteration), and [`par`] hands the same count to faer for the eigen solver's dense
 //! products. The evaluation's `--jobs` run one case per job, and the viewer's simulation thread steps
 //! the solver; large steps of either share the pool's threads.
