@@ -5,7 +5,7 @@
 //! which a sparse solve runs the two halves of its factor's elimination tree at once, or splits its
 //! passes over the factor when it has no halves (the modal analysis's block solves,
 //! [`crate::linalg::SparseCholesky::solve_many`]), `mwts-rs`'s step runs
-//! the two halves of its triangle pass and of its reconstruction solve ([`join`], inside the pool with
+//! the two halves of its triangle pass, of its reconstruction solve and of its placing ([`join`], inside the pool with
 //! its threads awake: [`awake`]), `mwts`'s and `lma`'s the two halves of a large vertex pass, `pbd`'s and `xpbd`'s
 //! step (on a pool thread) its sweeps' large colours in pieces ([`phases`]: one start of the threads
 //! for all of a sweep's colours, each thread taking the next piece, a colour's once the last one's

@@ -207,9 +207,9 @@ impl Search<'_> {
     }
 }
 
-/// Where `x` is relative to the body it is closest to (by signed distance, the first of equals;
-/// `total_cmp`'s order, so that a distance that is not a number loses); `None` without bodies. A
-/// plain loop: as an iterator's `min_by`, its running minimum went through memory at every body.
+/// Where `x` is relative to the body it is closest to (by signed distance in `total_cmp`'s order, the
+/// first of equals: what `min_by` with it picks); `None` without bodies. A plain loop: as an
+/// iterator's `min_by`, its running minimum went through memory at every body.
 #[inline(always)]
 fn nearest(bodies: &[Placed<'_>], x: DVec3) -> Option<Contact> {
     let mut best: Option<(&Placed<'_>, f64, DVec3)> = None;
@@ -285,5 +285,28 @@ mod tests {
         );
         assert!(whole.1.iter().any(|r| *r != DVec3::ONE), "friction acted");
         assert_eq!(whole, halves);
+    }
+
+    #[test]
+    fn the_nearest_body_is_the_one_min_by_picks_ties_and_all() {
+        // A ball, and two floors at the same place moving apart (equal distances, different
+        // velocities): the loop and `min_by` with `total_cmp` pick the same body everywhere.
+        let floor = |vx: f64| Motion { velocity: DVec3::new(vx, 0.0, 0.0), ..Motion::default() };
+        let bodies = [
+            Body::scripted(Shape::Sphere { radius: 0.3 }, DVec3::new(0.0, 0.5, 0.0), Motion::default()),
+            Body::scripted(Shape::Plane { normal: DVec3::Y }, DVec3::ZERO, floor(1.0)),
+            Body::scripted(Shape::Plane { normal: DVec3::Y }, DVec3::ZERO, floor(-1.0)),
+        ];
+        let placed: Vec<Placed<'_>> = bodies.iter().map(|b| b.at(0.2)).collect();
+        let mut floors = 0;
+        for i in 0..400 {
+            let x = DVec3::new((0.7 * i as f64).sin(), 0.9 * (0.3 * i as f64).cos() + 0.3, 0.1 * (i % 9) as f64);
+            let (body, (distance, normal)) =
+                placed.iter().map(|b| (b, b.surface(x))).min_by(|a, b| a.1.0.total_cmp(&b.1.0)).unwrap();
+            let c = nearest(&placed, x).unwrap();
+            assert_eq!((c.distance, c.normal, c.velocity), (distance, normal, body.velocity_at(x)), "{x}");
+            floors += usize::from(c.velocity.x == 1.0);
+        }
+        assert!(floors > 50, "the first of the tied floors, {floors} times");
     }
 }

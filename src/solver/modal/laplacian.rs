@@ -28,7 +28,8 @@ use crate::linalg::padded::Padded;
 use crate::mesh::TriMesh;
 use crate::solver::SolverError;
 
-/// Placing at least this many vertices goes in two halves at once ([`EdgeLaplacian::positions`]).
+/// Placing goes in two halves at once when each has at least this many vertices
+/// ([`EdgeLaplacian::positions`]).
 pub const HALVES: usize = 4096;
 
 /// Marks a vertex that is not an unknown of `L` (anchored, or a gauge vertex), or is in no gauge.
@@ -158,7 +159,7 @@ impl EdgeLaplacian {
     /// Solve `L u = b` for the right side filled in [`EdgeLaplacian::rhs_mut`] and write every
     /// vertex's position `rest + u` into `out` (`u` zero at anchors), each anchorless component
     /// translated so that its centroid moves by `centroids[g]` (one per gauge). The vertices go in
-    /// two halves at once ([`crate::threads::halves`]) from [`HALVES`] on.
+    /// two halves at once ([`crate::threads::halves`]) from twice [`HALVES`] on.
     pub fn positions(&mut self, centroids: &[DVec3], rest: &[DVec3], out: &mut [DVec3]) {
         self.factor.solve();
         let (x, unknown, gauge_of) = (self.factor.solution(), &self.unknown, &self.gauge_of);

@@ -105,7 +105,8 @@ pub struct RotationStrain {
     stiffness: Option<DMatrix<f64>>,
     /// Per mode: the largest triangle rotation a unit of it makes, rad.
     scales: Vec<f64>,
-    /// Scratch: the second half of the pass's right side.
+    /// Scratch: what the second half of the pass adds to the solve's top (to every unknown when
+    /// the pass is cut by number).
     scratch: Vec<Padded>,
 }
 

@@ -44,7 +44,11 @@
 //! rows and scatters into its own unknowns of the right side; what the second half adds to the
 //! top's unknowns goes to a scratch, added to the first's when both are done, and so do its sums
 //! ([`crate::threads::join_sum`]). With more than one thread ([`crate::threads`]) the halves run at
-//! once; on one they run in turn, so that the sums do not depend on the thread count.
+//! once; on one they run in turn, so that the sums do not depend on the thread count. Where the solve
+//! has no halves (fewer unknowns than it splits from), the triangles are halved by their number and
+//! the second half's scratch takes every unknown.
+
+mod halves;
 
 use std::ops::Range;
 
@@ -56,6 +60,7 @@ use super::kernel::{coefficients, cross, rodrigues};
 use super::laplacian::NONE;
 use super::rotation::{barycentric_gradients, triangle_jacobian};
 use crate::linalg::padded::Padded;
+use halves::{Target, cut};
 
 /// Passes over at least this many triangles go in two halves (module documentation); a smaller one
 /// stays whole: handing half of it to another thread would cost more than it saves.
@@ -94,7 +99,7 @@ pub struct TrianglePass {
     inner: Option<usize>,
     /// The first chunk of the second half (module documentation).
     half: usize,
-    /// The ends of the two halves of the unknowns when the pass goes in halves.
+    /// The ends of the two halves of the unknowns when the pass is cut along them.
     unknown_halves: Option<[usize; 2]>,
 }
 
@@ -281,8 +286,10 @@ impl TrianglePass {
             |chunks, rhs| pulp::Arch::new().dispatch(Pass { pass: self, q, loads: moments, chunks, rhs, drags: rows });
         let all = 0..self.chunks.len();
         let (first, second) = (all.start..self.half, self.half..all.end);
-        let sums = match (rhs, self.unknown_halves) {
-            (Some(RightSide { rhs, scratch }), Some([a, b])) => {
+        let sums = match (rhs, self.splits()) {
+            (Some(RightSide { rhs, scratch }), true) => {
+                // Cut by number: the top is every unknown, and all the second half adds goes to the scratch.
+                let [a, b] = self.unknown_halves.unwrap_or([0, 0]);
                 scratch.clear();
                 scratch.resize(rhs.len() - b, Padded::ZERO);
                 let (low, top) = rhs.split_at_mut(b);
@@ -293,12 +300,12 @@ impl TrianglePass {
                 top.iter_mut().zip(scratch.iter()).for_each(|(t, s)| *t += *s);
                 sums
             }
-            (Some(RightSide { rhs, .. }), None) => {
+            (Some(RightSide { rhs, .. }), false) => {
                 let end = rhs.len();
                 half(all, Some(Target { own: (rhs, 0), top: (&mut [], end) }))
             }
-            (None, Some(_)) => crate::threads::join_sum(|| half(first, None), || half(second, None)),
-            (None, None) => half(all, None),
+            (None, true) => crate::threads::join_sum(|| half(first, None), || half(second, None)),
+            (None, false) => half(all, None),
         };
         self.finish(loads, drags, sums)
     }
@@ -314,48 +321,9 @@ impl TrianglePass {
     }
 }
 
-/// The triangles in pass order, `None` where a chunk is padded, the first chunk of the second half,
-/// and the ends of the unknowns' halves if the pass goes in two (module documentation, *Two halves*).
-#[allow(clippy::type_complexity)]
-fn cut(
-    moving: &[[usize; 3]],
-    unknowns: &[u32],
-    halves: Option<[usize; 2]>,
-) -> (Vec<Option<[usize; 3]>>, usize, Option<[usize; 2]>) {
-    let whole = || (moving.iter().copied().map(Some).collect::<Vec<_>>(), chunks(moving.len()), None);
-    let Some([a, b]) = halves.filter(|_| moving.len() >= SPLIT) else { return whole() };
-    // 0 or 1: the half of the unknowns the triangle has a corner in; 2: only the top's; 3: both
-    // halves' (which their having no edge in common rules out; then the pass stays whole).
-    let side = |t: &[usize; 3]| {
-        let of = |v: usize| match unknowns[v] as usize {
-            u if u < a => 1,
-            u if u < b => 2,
-            _ => 0,
-        };
-        match t.iter().fold(0, |sides, &v| sides | of(v)) {
-            0 => 2,
-            sides => sides - 1,
-        }
-    };
-    let sides: Vec<usize> = moving.iter().map(side).collect();
-    if sides.contains(&3) {
-        return whole();
-    }
-    let count = |k| sides.iter().filter(|&&s| s == k).count();
-    let top_with = usize::from(count(0) > count(1));
-    let group = |k: usize| {
-        (moving.iter().zip(&sides)).filter(move |(_, s)| **s == k || (**s == 2 && k == top_with)).map(|(t, _)| Some(*t))
-    };
-    let mut order: Vec<Option<[usize; 3]>> = group(0).collect();
-    order.resize(order.len().next_multiple_of(LANES), None);
-    let half = order.len() / LANES;
-    order.extend(group(1));
-    (order, half, halves)
-}
-
 /// The arguments of one half of [`TrianglePass::run`], for the dispatch to the best instruction set:
-/// its chunks, and its right side with the unknown at its start. It returns its sums: the force,
-/// then each drag's three rows.
+/// its chunks, and where it scatters its right side. It returns its sums: the force, then each
+/// drag's three rows.
 struct Pass<'a> {
     pass: &'a TrianglePass,
     q: &'a [f64],
@@ -363,24 +331,6 @@ struct Pass<'a> {
     chunks: Range<usize>,
     rhs: Option<Target<'a>>,
     drags: &'a [DragRows],
-}
-
-/// Where one half of a pass scatters the right side: its own unknowns and the top's, each a slice
-/// with the unknown at its start (the top's from the first unknown past its own).
-struct Target<'a> {
-    own: (&'a mut [Padded], usize),
-    top: (&'a mut [Padded], usize),
-}
-
-impl Target<'_> {
-    /// Unknown `u`'s entry, if it is one of this target's.
-    #[inline(always)]
-    fn get_mut(&mut self, u: u32) -> Option<&mut Padded> {
-        let u = u as usize;
-        let (part, start) =
-            if u >= self.top.1 { (&mut *self.top.0, self.top.1) } else { (&mut *self.own.0, self.own.1) };
-        u.checked_sub(start).and_then(|i| part.get_mut(i))
-    }
 }
 
 impl pulp::WithSimd for Pass<'_> {
@@ -681,7 +631,7 @@ mod tests {
     fn a_pass_cut_along_the_solves_halves_gives_what_the_whole_pass_does() {
         // A sheet clamped along one side, large enough for the reconstruction's solve to have halves
         // and the pass to go in two: its right side, force and drag rows against the same pass whole.
-        let mesh = grid([1.0, 0.75], [80, 60]).unwrap();
+        let mesh = grid([1.0, 0.75], [79, 61]).unwrap();
         let rest = mesh.positions();
         let anchors: Vec<usize> = (0..rest.len()).filter(|&v| rest[v].x < -0.49).collect();
         let laplacian = EdgeLaplacian::new(&mesh, &anchors).unwrap();
@@ -698,12 +648,19 @@ mod tests {
             .collect();
         let basis = ModalBasis::new(&mesh, vec![1.0, 4.0, 9.0], &shapes);
         let unknowns = laplacian.unknowns();
-        let passes =
+        // Cut along the halves, cut by number, and whole.
+        let [along, by_number] =
             [Some([a, b]), None].map(|halves| TrianglePass::new(rest, mesh.triangles(), unknowns, halves, &basis));
-        assert!(passes[0].splits() && !passes[1].splits());
+        let whole = TrianglePass { half: by_number.chunks.len(), ..by_number.clone() };
+        assert!(along.splits() && by_number.splits() && !whole.splits());
+        let passes = [along, by_number, whole];
         let y: Vec<DVec3> = (0..rest.len()).map(|v| DVec3::new((0.3 * v as f64).sin(), -1.0, 0.2)).collect();
         let z: Vec<f64> = (0..rest.len()).map(|v| (0.11 * v as f64).cos()).collect();
         let q = [1.2, -0.7, 0.5];
+        let moving: Vec<[usize; 3]> =
+            mesh.triangles().iter().filter(|t| t.iter().any(|&v| unknowns[v] != NONE)).copied().collect();
+        let (order, half, _) = cut(&moving, unknowns, Some([a, b]));
+        assert!(order[..half * LANES].iter().any(Option::is_none), "the first half's last chunk is padded");
         let results: Vec<(Vec<Padded>, Vec<f64>, Vec<f64>)> = passes
             .iter()
             .map(|pass| {
@@ -717,24 +674,30 @@ mod tests {
                     &mut drags,
                 );
                 let [drag] = drags;
+                // A pass for the force alone gives the same force.
+                let mut alone = vec![0.0; 3];
+                pass.run(&q, Some((&loads, &mut alone)), None, &mut []);
+                assert_eq!(alone, force);
                 (rhs, force, drag.rows)
             })
             .collect();
-        let [(cut_rhs, cut_force, cut_rows), (rhs, force, rows)] = [results[0].clone(), results[1].clone()];
+        let (rhs, force, rows) = &results[2];
         let largest = rhs.iter().map(|b| DVec3::from(*b).length()).fold(0.0, f64::max);
-        let worst =
-            cut_rhs.iter().zip(&rhs).map(|(c, w)| (DVec3::from(*c) - DVec3::from(*w)).length()).fold(0.0, f64::max);
         let top = rhs[b..].iter().filter(|t| DVec3::from(**t).length() > 1e-3 * largest).count();
-        eprintln!(
-            "right side: {} unknowns, halves {a} and {}, top {}; worst {worst:.1e} of {largest:.1e}",
-            rhs.len(),
-            b - a,
-            rhs.len() - b
-        );
         assert!(top > 0, "the top's unknowns take terms");
-        assert!(worst <= 1e-13 * largest, "{worst} of {largest}");
-        for (cut, whole) in cut_force.iter().chain(&cut_rows).zip(force.iter().chain(&rows)) {
-            assert!((cut - whole).abs() <= 1e-12 * whole.abs().max(1.0), "{cut} against {whole}");
+        for (name, (cut_rhs, cut_force, cut_rows)) in ["along the halves", "by number"].iter().zip(&results) {
+            let worst =
+                cut_rhs.iter().zip(rhs).map(|(c, w)| (DVec3::from(*c) - DVec3::from(*w)).length()).fold(0.0, f64::max);
+            eprintln!(
+                "cut {name}: {} unknowns, halves {a} and {}, top {}; worst {worst:.1e} of {largest:.1e}",
+                rhs.len(),
+                b - a,
+                rhs.len() - b
+            );
+            assert!(worst <= 1e-13 * largest, "{name}: {worst} of {largest}");
+            for (cut, whole) in cut_force.iter().chain(cut_rows).zip(force.iter().chain(rows)) {
+                assert!((cut - whole).abs() <= 1e-12 * whole.abs().max(1.0), "{name}: {cut} against {whole}");
+            }
         }
     }
 }
