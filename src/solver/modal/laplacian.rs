@@ -163,14 +163,14 @@ impl EdgeLaplacian {
     pub fn positions(&mut self, centroids: &[DVec3], rest: &[DVec3], out: &mut [DVec3]) {
         self.factor.solve();
         let (x, unknown, gauge_of) = (self.factor.solution(), &self.unknown, &self.gauge_of);
-        let u = |v: usize| x.get(unknown[v] as usize).map_or(DVec3::ZERO, |&x| DVec3::from(x));
+        let u = |v: usize| at(x, unknown[v]);
         let shifts: Vec<DVec3> = (self.gauges.iter().zip(centroids))
             .map(|(g, mu)| *mu - g.vertices.iter().zip(&g.weights).map(|(&v, w)| u(v) * *w).sum::<DVec3>())
             .collect();
         crate::threads::halves(out, HALVES, |first, part| {
             for (v, p) in (first..).zip(part) {
-                let shift = shifts.get(gauge_of[v] as usize);
-                *p = rest[v] + shift.map_or(u(v), |s| u(v) + *s);
+                let (shift, u) = (shifts.get(gauge_of[v] as usize), u(v));
+                *p = rest[v] + shift.map_or(u, |s| u + *s);
             }
         });
     }
@@ -185,19 +185,15 @@ impl EdgeLaplacian {
             let shift = net.get(self.gauge_of[v] as usize).map_or(DVec3::ZERO, |fg| *fg * self.weight[v]);
             rhs[k as usize] = (f[v] - shift).into();
         }
-        let mut y = vec![DVec3::ZERO; f.len()];
-        self.solve_into(&mut y);
-        (y, net)
-    }
-
-    /// Solve for the right side in the buffer and write the solution per vertex (zero elsewhere).
-    fn solve_into(&mut self, u: &mut [DVec3]) {
         self.factor.solve();
         let x = self.factor.solution();
-        for (ui, &k) in u.iter_mut().zip(&self.unknown) {
-            *ui = x.get(k as usize).map_or(DVec3::ZERO, |&x| x.into());
-        }
+        (self.unknown.iter().map(|&k| at(x, k)).collect(), net)
     }
+}
+
+/// The solution's value at `unknown` (zero for [`NONE`]).
+fn at(solution: &[Padded], unknown: u32) -> DVec3 {
+    solution.get(unknown as usize).map_or(DVec3::ZERO, |&x| x.into())
 }
 
 #[cfg(test)]

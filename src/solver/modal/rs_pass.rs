@@ -139,7 +139,7 @@ impl TrianglePass {
             triangles.iter().filter(|t| t.iter().any(|&v| unknowns[v] != NONE)).copied().collect();
         let (order, half, unknown_halves) = cut(&moving, unknowns, halves);
         let empty = Chunk { unknowns: [[NONE; LANES]; 3], frame: [[0.0; LANES]; 6], s: [[0.0; LANES]; 6] };
-        let mut chunked = vec![empty; order.len().div_ceil(LANES)];
+        let mut chunked = vec![empty; chunks(order.len())];
         let mut corners = vec![[[0; LANES]; 3]; chunked.len()];
         for (i, t) in order.iter().enumerate().filter_map(|(i, t)| Some((i, (*t)?))) {
             let (chunk, lane) = (&mut chunked[i / LANES], i % LANES);

@@ -43,8 +43,8 @@ pub(super) fn cut(
         (moving.iter().zip(&sides)).filter(move |(_, s)| **s == k || (**s == 2 && k == top_with)).map(|(t, _)| Some(*t))
     };
     let mut order: Vec<Option<[usize; 3]>> = group(0).collect();
-    order.resize(order.len().next_multiple_of(LANES), None);
-    let half = order.len() / LANES;
+    let half = chunks(order.len());
+    order.resize(half * LANES, None);
     order.extend(group(1));
     (order, half, halves)
 }
