@@ -113,6 +113,15 @@ pub fn awake<R: Send>(joins: bool, f: impl FnOnce() -> R + Send) -> R {
     })
 }
 
+/// `f()` on a pool thread when there are several (the caller waits), else here: for a loop of many
+/// short steps (`shellwarp sim`). Each step's [`awake`] then runs in place, where from outside the
+/// pool it would hand its work to a pool thread and wait to be woken at the end; and between steps
+/// the pool's other threads, just released, are still spinning rather than asleep. On two cores
+/// here that took the drape's median step from 0.49 to 0.44 ms. A panic in `f` reaches the caller.
+pub fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    if threads() == 1 || rayon::current_thread_index().is_some() { f() } else { rayon::scope(|_| f()) }
+}
+
 /// `(a(), b())`, at once on two pool threads when there are several (`rayon::join`), else in turn.
 pub fn join<RA: Send, RB: Send>(a: impl FnOnce() -> RA + Send, b: impl FnOnce() -> RB + Send) -> (RA, RB) {
     if threads() > 1 { rayon::join(a, b) } else { (a(), b()) }
@@ -399,6 +408,16 @@ mod tests {
             })
         });
         assert!(caught.is_err());
+    }
+
+    /// `on_pool` runs its work on a pool thread (when there are several) and gives back its result; a
+    /// panic in it reaches the caller.
+    #[test]
+    fn work_on_the_pool_returns_and_panics_through() {
+        let index = on_pool(rayon::current_thread_index);
+        assert_eq!(index.is_some(), threads() > 1);
+        assert_eq!(on_pool(|| awake(true, || join(|| 20, || 22))), (20, 22));
+        assert!(std::panic::catch_unwind(|| on_pool(|| -> u32 { panic!("in the work") })).is_err());
     }
 
     #[test]

@@ -147,21 +147,24 @@ pub fn run(args: &SimArgs) -> anyhow::Result<ExitCode> {
     let mut diverged = None;
     // The positions to report: the current ones, or the last finite state before a divergence.
     let mut finite: Vec<DVec3> = solver.positions().to_vec();
-    for _ in 0..args.steps {
-        match solver.step() {
-            Ok(stats) => {
-                times.push(stats.wall_seconds);
-                iterations += u64::from(stats.iterations);
-                unconverged += u64::from(!stats.converged);
-                last = stats;
-                finite.copy_from_slice(solver.positions());
-            }
-            Err(e) => {
-                diverged = Some(e.to_string());
-                break;
+    // The steps on a pool thread: each step's joins then start without a hand-over (`on_pool`).
+    shellwarp::threads::on_pool(|| {
+        for _ in 0..args.steps {
+            match solver.step() {
+                Ok(stats) => {
+                    times.push(stats.wall_seconds);
+                    iterations += u64::from(stats.iterations);
+                    unconverged += u64::from(!stats.converged);
+                    last = stats;
+                    finite.copy_from_slice(solver.positions());
+                }
+                Err(e) => {
+                    diverged = Some(e.to_string());
+                    break;
+                }
             }
         }
-    }
+    });
     let (lo, hi) = finite.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
     if let Some(path) = &args.obj {
         // The error names the file already.

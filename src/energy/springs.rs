@@ -157,6 +157,15 @@ impl BucklingCurve {
         let h = 1.0 / KNOTS as f64;
         hermite(t, h, self.g[k], -self.f[k], self.g[k + 1], -self.f[k + 1]).0
     }
+
+    /// `(F(u), F′(u), G(u))`, located once: the same values as [`Self::force`] and [`Self::energy`].
+    #[inline(always)]
+    pub fn force_energy(&self, u: f64) -> (f64, f64, f64) {
+        let (k, t) = Self::locate(u);
+        let h = 1.0 / KNOTS as f64;
+        let (f, df) = hermite(t, h, self.f[k], self.df[k], self.f[k + 1], self.df[k + 1]);
+        (f, df, hermite(t, h, self.g[k], -self.f[k], self.g[k + 1], -self.f[k + 1]).0)
+    }
 }
 
 /// Cubic Hermite on one interval of width `h` at local parameter `t ∈ [0, 1]`: value and derivative.
@@ -229,44 +238,26 @@ impl Buckling {
         Self { branch_energy: (start, end, g1), ..self }
     }
 
-    /// `(tension, stiffness)` at length `r`, without the energy (the hot path of a step).
+    /// The response at length `r`: zero at or beyond rest length, `f_b*` in compression, with its
+    /// stiffness and energy (the integral of `f_b*` from the rest length); one look-up of the curve for
+    /// the three (the hot path of a cloth step, which linearises and measures every spring at once).
     #[inline(always)]
-    pub fn tension_stiffness(&self, r: f64) -> (f64, f64) {
+    pub fn eval(&self, r: f64) -> Spring {
         let (l, t) = (self.rest, 1.0 - r / self.rest);
         if t <= 0.0 {
-            return (0.0, 0.0);
-        }
-        let (t1, t2) = self.buckling;
-        if t >= t1 && t <= t2 && t1 < t2 {
-            let (f, df) = BucklingCurve::get().force(1.0 - t);
-            return (-self.k_b / (l * l) * f, -self.k_b / (l * l * l) * df);
-        }
-        (-self.c_b * l * t, self.c_b)
-    }
-
-    /// The energy at length `r`: the integral of `f_b*` from the rest length.
-    #[inline(always)]
-    pub fn energy(&self, r: f64) -> f64 {
-        let (l, t) = (self.rest, 1.0 - r / self.rest);
-        if t <= 0.0 {
-            return 0.0;
+            return Spring::default();
         }
         let (t1, t2) = self.buckling;
         let (start, end, g1) = self.branch_energy;
         let linear = |a: f64, b: f64| 0.5 * self.c_b * l * l * (b * b - a * a);
-        if t1 >= t2 || t <= t1 {
-            linear(0.0, t)
-        } else if t <= t2 {
-            start + self.k_b / l * (BucklingCurve::get().energy(1.0 - t) - g1)
-        } else {
-            end + linear(t2, t)
+        if t >= t1 && t <= t2 && t1 < t2 {
+            let (f, df, g) = BucklingCurve::get().force_energy(1.0 - t);
+            // At t = t₁ the branches meet; the energy is taken on the linear one.
+            let energy = if t <= t1 { linear(0.0, t) } else { start + self.k_b / l * (g - g1) };
+            return Spring { energy, tension: -self.k_b / (l * l) * f, stiffness: -self.k_b / (l * l * l) * df };
         }
-    }
-
-    /// The response at length `r`: zero at or beyond rest length, `f_b*` in compression.
-    pub fn eval(&self, r: f64) -> Spring {
-        let (tension, stiffness) = self.tension_stiffness(r);
-        Spring { energy: self.energy(r), tension, stiffness }
+        let energy = if t1 >= t2 || t <= t1 { linear(0.0, t) } else { end + linear(t2, t) };
+        Spring { energy, tension: -self.c_b * l * t, stiffness: self.c_b }
     }
 }
 
@@ -343,7 +334,7 @@ mod tests {
             let simpson = |a: f64, b: f64| {
                 let n = 2000;
                 let h = (b - a) / n as f64;
-                let t = |k: usize| spring.tension_stiffness(a + k as f64 * h).0;
+                let t = |k: usize| spring.eval(a + k as f64 * h).tension;
                 (t(0) + t(n) + (1..n).map(|k| if k % 2 == 1 { 4.0 } else { 2.0 } * t(k)).sum::<f64>()) * h / 3.0
             };
             for r in [0.005, 0.05, 0.3, 0.6, 0.9, 0.97, 0.999].map(|u| u * l) {
@@ -352,7 +343,7 @@ mod tests {
                 nodes.insert(0, r);
                 nodes.push(l);
                 let work: f64 = nodes.windows(2).map(|w| simpson(w[0], w[1])).sum();
-                let e = spring.energy(r);
+                let e = spring.eval(r).energy;
                 assert!(
                     (e + work).abs() < 1e-9 * e.abs().max(1e-12),
                     "k_b {k_b}, c_b {c_b}, r/L {}: {e} vs {}",

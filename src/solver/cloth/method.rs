@@ -168,6 +168,12 @@ pub struct Cloth {
     dv: Vec<DVec3>,
     /// The step being solved (its buffers reused from step to step).
     work: LinearStep,
+    /// `Some((h, g))` when `work`'s right side and preconditioner, and the system's matrix, already hold
+    /// the springs linearised at the current state for a step of `h` under gravity `g`: a step ends by
+    /// linearising the next at the state it reached (which measures that state), and the next step
+    /// of the same `h` starts from it. Anything else that changes the springs' linearisation (a
+    /// parameter, a reset, a step taken back) clears it.
+    ahead: Option<(f64, DVec3)>,
     /// The last solve's residual `b − A Δv`.
     residual: Vec<DVec3>,
     /// The solves' vectors.
@@ -250,6 +256,7 @@ impl Cloth {
             v: vec![DVec3::ZERO; n],
             dv: vec![DVec3::ZERO; n],
             work: LinearStep::default(),
+            ahead: None,
             residual: vec![DVec3::ZERO; n],
             pcg: filtered_pcg::Workspace::default(),
             held: vec![false; n],
@@ -288,17 +295,21 @@ impl Cloth {
     /// with the contact states advanced to this step) and the right side. [`Solver::step`] solves it.
     pub fn linearise(&mut self) -> LinearStep {
         let mut step = LinearStep::default();
-        self.linearise_into(self.h, &mut step);
+        self.linearise_into(self.h, &mut step, false);
         step
     }
 
-    /// Linearise a step of `h` into `step`, reusing its buffers.
-    fn linearise_into(&mut self, h: f64, step: &mut LinearStep) {
+    /// Linearise a step of `h` into `step`, reusing its buffers; with `springs_ahead`, the springs' part
+    /// is already in `step` (see [`Cloth::ahead`]).
+    fn linearise_into(&mut self, h: f64, step: &mut LinearStep, springs_ahead: bool) {
         let n = self.x.len();
-        step.rhs.resize(n, DVec3::ZERO);
-        step.preconditioner.resize(n, PaddedMat3::default());
         step.constraints.clear();
-        self.system.linearise((&self.x, &self.v), self.gravity, h, &mut step.rhs, &mut step.preconditioner);
+        if !springs_ahead {
+            self.ahead = None;
+            step.rhs.resize(n, DVec3::ZERO);
+            step.preconditioner.resize(n, PaddedMat3::default());
+            self.system.linearise((&self.x, &self.v), self.gravity, h, &mut step.rhs, &mut step.preconditioner);
+        }
         if !self.wind.is_calm() {
             // The wind at the start of the step, held over it (explicitly, like the loads).
             let mut f = vec![DVec3::ZERO; n];
@@ -332,7 +343,7 @@ impl Cloth {
         if springs.strain_jump <= STRAIN_JUMP {
             return (report, springs.energy);
         }
-        (self.x, self.v, self.contacts, self.time) = (x, v, contacts, time);
+        (self.x, self.v, self.contacts, self.time, self.ahead) = (x, v, contacts, time, None);
         self.dv = dv.iter().map(|d| *d * 0.5).collect();
         let (first, _) = self.advance(0.5 * h, halvings + 1);
         let (second, energy) = self.advance(0.5 * h, halvings + 1);
@@ -345,10 +356,11 @@ impl Cloth {
         (report, energy)
     }
 
-    /// One linearised backward Euler step of `h`, solved by the filtered PCG; the springs at its end.
+    /// One linearised backward Euler step of `h`, solved by the filtered PCG; the springs at its end,
+    /// measured by linearising the next step of `h` there.
     fn single_step(&mut self, h: f64) -> (PcgReport, SpringState) {
         let mut step = std::mem::take(&mut self.work);
-        self.linearise_into(h, &mut step);
+        self.linearise_into(h, &mut step, self.ahead == Some((h, self.gravity)));
         let stop = Stop { tolerance: self.tolerance, floor: step.error_floor, max_iterations: self.iterations };
         let report = step.solve(&self.system, &mut self.dv, stop, &mut self.residual, &mut self.pcg);
         self.work = step;
@@ -358,7 +370,11 @@ impl Cloth {
             *x += *v * h;
         }
         self.time += h;
-        (report, self.system.measure(&self.x))
+        let work = &mut self.work;
+        let springs =
+            self.system.linearise((&self.x, &self.v), self.gravity, h, &mut work.rhs, &mut work.preconditioner);
+        self.ahead = Some((h, self.gravity));
+        (report, springs)
     }
 
     /// Anchors and drags (reached at the end of a step of `h`) as constraints; marks held particles.
@@ -410,6 +426,7 @@ impl Solver for Cloth {
         self.v.fill(DVec3::ZERO);
         self.dv.fill(DVec3::ZERO);
         self.contacts.reset();
+        self.ahead = None;
         self.steps = 0;
         self.time = 0.0;
     }
@@ -419,7 +436,9 @@ impl Solver for Cloth {
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), SolverError> {
+        // The wind's forces come after the springs' part; every other parameter may change it.
         if !self.wind.set_param(name, value)? {
+            self.ahead = None;
             params::set(PARAMS, self, name, value)?;
         }
         Ok(())

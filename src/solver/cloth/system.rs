@@ -13,8 +13,9 @@
 //! Each spring contributes `G = h k_d I + h² (a x̂x̂ᵀ + b I)` to the system matrix (`+G` on both
 //! diagonal blocks, `−G` off the diagonal), stored as `(x̂, h² a, h k_d + h² b)` (`RankOne`): a
 //! product with the matrix is one pass over the springs, about 15 flops each. The pass that
-//! linearises the springs also accumulates the right side and the diagonal blocks, and the pass that
-//! measures the state after a step yields both the springs' energy and their strain growth.
+//! linearises the springs also accumulates the right side and the diagonal blocks, and yields the
+//! springs' energy and their strain growth since the linearisation before: a step ends by
+//! linearising the next one at the state it reached, which is how it measures that state.
 //!
 //! **Two sides.** The particles are halved by index, `..h` and `h..` with `h = n/2` (a generated
 //! sheet is numbered across it, so each half is a patch), and the springs are taken in three groups
@@ -144,7 +145,7 @@ fn lengths(pairs: &[[usize; 2]], x: &[DVec3]) -> [(f64, f64); LANES] {
     [0, 1, 2, 3].map(|k| (r[k], inverse[k]))
 }
 
-/// The springs at a state reached by a step ([`ClothSystem::measure`]).
+/// The springs at the state a linearisation was made at ([`ClothSystem::linearise`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SpringState {
     /// The springs' energy, J.
@@ -229,7 +230,8 @@ impl ClothSystem {
 
     /// Linearise the forces at `(x, v)` with gravity `g` (scaled by `1/w`) for a step of `h`: the
     /// step's matrix `A` (kept for its [`Operator`] product), its right side `rhs = h f̃₀ − h² K v₀` and
-    /// `preconditioner`, the inverses of `A`'s 3 × 3 diagonal blocks (block Jacobi).
+    /// `preconditioner`, the inverses of `A`'s 3 × 3 diagonal blocks (block Jacobi). Returns the
+    /// springs' energy at `x` and their strain growth since the linearisation before.
     pub fn linearise(
         &mut self,
         (x, v): (&[DVec3], &[DVec3]),
@@ -237,13 +239,13 @@ impl ClothSystem {
         h: f64,
         rhs: &mut [DVec3],
         preconditioner: &mut [PaddedMat3],
-    ) {
+    ) -> SpringState {
         let parallel = self.parallel();
         let springs = Springs { graph: &self.graph, params: self.params, buckling: &self.buckling, split: &self.split };
         let [first, second, across] = self.split.groups();
         let [step_first, step_second, step_across] = in_three(&mut self.step_matrix, &self.split);
         let [length_first, length_second, length_across] = in_three(&mut self.length, &self.split);
-        isa::avx2(Across {
+        let crossing = isa::avx2(Across {
             springs,
             range: across.clone(),
             state: (x, v),
@@ -266,15 +268,15 @@ impl ClothSystem {
                 g,
                 h,
                 out: (step, length, rhs, diagonal),
-            });
+            })
         };
         let first_side = || side(first, 0..half, step_first, length_first, rhs_first, diagonal_first);
         let second_side = || side(second, half..x.len(), step_second, length_second, rhs_second, diagonal_second);
-        if parallel {
-            threads::join(first_side, second_side);
-        } else {
-            first_side();
-            second_side();
+        let (a, b) = if parallel { threads::join(first_side, second_side) } else { (first_side(), second_side()) };
+        // The groups' sums added in one order: the same on any number of threads.
+        SpringState {
+            energy: a.energy + b.energy + crossing.energy,
+            strain_jump: a.strain_jump.max(b.strain_jump).max(crossing.strain_jump),
         }
     }
 
@@ -283,20 +285,6 @@ impl ClothSystem {
     pub fn add_forces(&self, f: &[DVec3], h: f64, rhs: &mut [DVec3]) {
         let weights = &self.graph.weights;
         rhs.iter_mut().zip(f).zip(weights).for_each(|((b, f), w)| *b += *f * (h / w));
-    }
-
-    /// The springs at `x`, a state reached from the last linearisation: their energy and strain growth.
-    pub fn measure(&self, x: &[DVec3]) -> SpringState {
-        let springs = Springs { graph: &self.graph, params: self.params, buckling: &self.buckling, split: &self.split };
-        let pass = |range| isa::avx2(Measure { springs, range, x, length: &self.length });
-        let [first, second, across] = self.split.groups();
-        let (a, b) =
-            if self.parallel() { threads::join(|| pass(first), || pass(second)) } else { (pass(first), pass(second)) };
-        let c = pass(across);
-        SpringState {
-            energy: a.energy + b.energy + c.energy,
-            strain_jump: a.strain_jump.max(b.strain_jump).max(c.strain_jump),
-        }
     }
 
     /// `½ Σ m̃ |v|²` minus the work of gravity `Σ m̃ g·(x − rest)`, J.
@@ -358,8 +346,9 @@ struct Springs<'a> {
 
 impl Springs<'_> {
     /// Spring `place` (in pass order) between `i` and `j`, of length `r` (`inverse = 1/r`, 0 at
-    /// `r = 0`) at `(x, v)`, for a step of `h`: its block `G` and its term `y` of the right side at `i`
-    /// (`−y` at `j`).
+    /// `r = 0`) at `(x, v)`, for a step of `h`: its block `G`, its term `y` of the right side at `i`
+    /// (`−y` at `j`), and the spring's [`Measured`] state against its length `before` at the last
+    /// linearisation.
     #[inline(always)]
     fn terms(
         &self,
@@ -368,24 +357,51 @@ impl Springs<'_> {
         (r, inverse): (f64, f64),
         (x, v): (&[DVec3], &[DVec3]),
         h: f64,
-    ) -> (RankOne, DVec3) {
+        before: f64,
+    ) -> (RankOne, DVec3, Measured) {
         let (s, stretch) = (self.split.springs[place], self.graph.stretch);
         let (k_s, k_d, h2) = (self.params.k_s, self.params.k_d, h * h);
         let dir = Padded::from(x[j] - x[i]) * inverse;
-        let (tension, stiffness) = if s < stretch {
+        let (tension, stiffness, measured) = if s < stretch {
             // Stretched: the exact Jacobian k_s x̂x̂ᵀ + (T/r)(I − x̂x̂ᵀ). Slack (T = 0): still k_s x̂x̂ᵀ
             // along the spring — see the module doc.
-            let tension = springs::stretch(r, self.graph.rest[s], k_s).tension;
-            (tension, RankOne { dir, a: k_s - tension * inverse, c: tension * inverse })
+            let rest = self.graph.rest[s];
+            let spring = springs::stretch(r, rest, k_s);
+            let (tension, measured) = (spring.tension, Measured { energy: spring.energy, jump: (r - before) / rest });
+            (tension, RankOne { dir, a: k_s - tension * inverse, c: tension * inverse }, measured)
         } else {
             // Longitudinal term only (Choi & Ko), S ≥ 0.
-            let (tension, slope) = self.buckling[s - stretch].tension_stiffness(r);
-            (tension, RankOne { dir, a: slope, c: 0.0 })
+            let spring = self.buckling[s - stretch].eval(r);
+            (
+                spring.tension,
+                RankOne { dir, a: spring.stiffness, c: 0.0 },
+                Measured { energy: spring.energy, jump: 0.0 },
+            )
         };
         // Force on i (spring and damping), and the right side's −h² K (vᵢ − vⱼ).
         let dv = Padded::from(v[i] - v[j]);
         let y = DVec3::from((dir * tension - dv * k_d) * h - stiffness.times(dv) * h2);
-        (RankOne { dir, a: h2 * stiffness.a, c: h2 * stiffness.c + h * k_d }, y)
+        (RankOne { dir, a: h2 * stiffness.a, c: h2 * stiffness.c + h * k_d }, y, measured)
+    }
+}
+
+/// One spring at the state it is linearised at: its energy and, for a stretch spring, its strain
+/// growth `(r − r₀)/L` since the last linearisation (0 for a buckling spring).
+#[derive(Clone, Copy)]
+struct Measured {
+    energy: f64,
+    jump: f64,
+}
+
+impl SpringState {
+    /// No springs yet.
+    const NONE: Self = Self { energy: 0.0, strain_jump: 0.0 };
+
+    /// Add one spring's state (energies summed in the order they come, growths by their largest).
+    #[inline(always)]
+    fn add(&mut self, m: Measured) {
+        self.energy += m.energy;
+        self.strain_jump = self.strain_jump.max(m.jump);
     }
 }
 
@@ -400,19 +416,21 @@ struct Across<'a> {
 }
 
 impl isa::Kernel for Across<'_> {
-    type Output = ();
+    type Output = SpringState;
     #[inline(always)]
-    fn run(self) {
+    fn run(self) -> SpringState {
         let Self { springs, range, state, h, out: (step, length, force) } = self;
-        let start = range.start;
+        let (start, mut measured) = (range.start, SpringState::NONE);
         for (chunk, pairs) in springs.split.pairs[range].chunks(LANES).enumerate() {
             let r = lengths(pairs, state.0);
             for (k, &pair) in pairs.iter().enumerate() {
                 let local = chunk * LANES + k;
-                let (g, y) = springs.terms(start + local, pair, r[k], state, h);
+                let (g, y, m) = springs.terms(start + local, pair, r[k], state, h, length[local]);
                 (step[local], length[local], force[local]) = (g, r[k].0, y);
+                measured.add(m);
             }
         }
+        measured
     }
 }
 
@@ -439,9 +457,9 @@ struct Side<'a> {
 }
 
 impl isa::Kernel for Side<'_> {
-    type Output = ();
+    type Output = SpringState;
     #[inline(always)]
-    fn run(self) {
+    fn run(self) -> SpringState {
         let Self { springs, range, rows, mass, across, state, g, h, out: (step, length, rhs, diagonal) } = self;
         let first = rows.start;
         for (k, (b, d)) in rhs.iter_mut().zip(diagonal.iter_mut()).enumerate() {
@@ -449,13 +467,14 @@ impl isa::Kernel for Side<'_> {
             *b = g * (h * m);
             *d = DMat3::from_diagonal(DVec3::splat(m)).into();
         }
-        let start = range.start;
+        let (start, mut measured) = (range.start, SpringState::NONE);
         for (chunk, pairs) in springs.split.pairs[range].chunks(LANES).enumerate() {
             let r = lengths(pairs, state.0);
             for (k, &[i, j]) in pairs.iter().enumerate() {
                 let local = chunk * LANES + k;
-                let (block, y) = springs.terms(start + local, [i, j], r[k], state, h);
+                let (block, y, m) = springs.terms(start + local, [i, j], r[k], state, h, length[local]);
                 (step[local], length[local]) = (block, r[k].0);
+                measured.add(m);
                 rhs[i - first] += y;
                 rhs[j - first] -= y;
                 let matrix = block.matrix();
@@ -474,35 +493,7 @@ impl isa::Kernel for Side<'_> {
         for d in diagonal.iter_mut() {
             *d = DMat3::from(*d).inverse().into();
         }
-    }
-}
-
-/// The springs `range` (in pass order) at `x`: their energy and largest strain growth since `length`.
-struct Measure<'a> {
-    springs: Springs<'a>,
-    range: Range<usize>,
-    x: &'a [DVec3],
-    length: &'a [f64],
-}
-
-impl isa::Kernel for Measure<'_> {
-    type Output = SpringState;
-    #[inline(always)]
-    fn run(self) -> SpringState {
-        let Self { springs: Springs { graph, params, buckling, split }, range, x, length } = self;
-        // Plain loops: an iterator's `sum` is a separate function, not inlined into the kernel.
-        let (mut energy, mut strain_jump) = (0.0, 0.0f64);
-        for place in range {
-            let ([i, j], s) = (split.pairs[place], split.springs[place]);
-            let r = (x[j] - x[i]).length();
-            if s < graph.stretch {
-                energy += springs::stretch(r, graph.rest[s], params.k_s).energy;
-                strain_jump = strain_jump.max((r - length[place]) / graph.rest[s]);
-            } else {
-                energy += buckling[s - graph.stretch].energy(r);
-            }
-        }
-        SpringState { energy, strain_jump }
+        measured
     }
 }
 
@@ -659,19 +650,46 @@ mod tests {
         let n = x.len();
         let still = vec![DVec3::ZERO; n];
         // At rest velocities and with h = 1 the right side is the force.
-        let (probe, f, _) = linearised(&sys, &x, &still);
+        let (_, f, _) = linearised(&sys, &x, &still);
+        let energy = |p: &[DVec3]| {
+            let (mut rhs, mut preconditioner) = (vec![DVec3::ZERO; n], vec![PaddedMat3::default(); n]);
+            sys.clone().linearise((p, &still), DVec3::ZERO, 1.0, &mut rhs, &mut preconditioner).energy
+        };
         let scale = f.iter().map(|v| v.abs().max_element()).fold(0.0, f64::max);
         for i in (0..n).step_by(3) {
             for a in 0..3 {
                 let e = 1e-7;
                 let mut p = x.clone();
                 p[i][a] += e;
-                let ep = probe.measure(&p).energy;
+                let ep = energy(&p);
                 p[i][a] -= 2.0 * e;
-                let em = probe.measure(&p).energy;
+                let em = energy(&p);
                 let fd = -(ep - em) / (2.0 * e);
                 assert!((fd - f[i][a]).abs() < 1e-6 * scale, "particle {i}[{a}]: {} vs fd {fd}", f[i][a]);
             }
         }
+    }
+
+    /// A linearisation measures the springs where it is made: the strain growth since the one before
+    /// is the largest `(r′ − r)/L` over the stretch springs (buckling springs have none), whichever
+    /// side of the split the spring is in.
+    #[test]
+    fn a_linearisation_measures_the_strain_growth_since_the_last() {
+        let (sys, x, v) = system();
+        let n = x.len();
+        let (mut rhs, mut preconditioner) = (vec![DVec3::ZERO; n], vec![PaddedMat3::default(); n]);
+        let mut lin = sys.clone();
+        lin.linearise((&x, &v), DVec3::ZERO, 0.01, &mut rhs, &mut preconditioner);
+        let g = sys.graph();
+        let length = |x: &[DVec3], s: usize| (x[g.pairs[s][1]] - x[g.pairs[s][0]]).length();
+        // Each particle moved by its own amount, so every spring's growth differs.
+        let moved: Vec<DVec3> = x.iter().enumerate().map(|(i, p)| *p * (1.0 + 0.001 * (i % 13) as f64)).collect();
+        let state = lin.linearise((&moved, &v), DVec3::ZERO, 0.01, &mut rhs, &mut preconditioner);
+        let want = (0..g.stretch).map(|s| (length(&moved, s) - length(&x, s)) / g.rest[s]).fold(0.0, f64::max);
+        assert!(want > 1e-3, "{want}");
+        assert_eq!(state.strain_jump, want);
+        // The energy is that of the state it was made at, whatever came before.
+        let fresh = sys.clone().linearise((&moved, &v), DVec3::ZERO, 0.01, &mut rhs, &mut preconditioner);
+        assert_eq!(state.energy, fresh.energy);
     }
 }
