@@ -7,7 +7,7 @@
 //! spring forces `f̃ = Σⱼ f_ij + m̃ g`, which is symmetric positive definite with Choi & Ko's kept
 //! Jacobians (stretch: exact; buckling: longitudinal only; damping `k_d I`). The same dynamics are
 //! the motion of particles of mass `m̃ᵢ` in the unweighted springs, so `½ vᵀM̃v + E_springs − m̃ g·u` is
-//! the energy these steps dissipate ([`ClothSystem::measure`] reports the springs' part,
+//! the energy these steps dissipate ([`ClothSystem::linearise`] reports the springs' part,
 //! [`ClothSystem::particle_energy`] the rest).
 //!
 //! Each spring contributes `G = h k_d I + h² (a x̂x̂ᵀ + b I)` to the system matrix (`+G` on both
