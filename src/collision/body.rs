@@ -95,9 +95,7 @@ impl Body {
     pub fn at(&self, t: f64) -> Placed<'_> {
         let (centre, rotation) = self.pose(t);
         let rotation = DMat3::from_quat(rotation);
-        let normal = if let Shape::Plane { normal } = self.shape { rotation * normal } else { DVec3::ZERO };
-        let velocity = self.origin_velocity(t);
-        Placed { body: self, centre, rotation, inverse: rotation.transpose(), normal, velocity }
+        Placed { body: self, centre, rotation, inverse: rotation.transpose(), velocity: self.origin_velocity(t) }
     }
 }
 
@@ -108,8 +106,6 @@ pub struct Placed<'a> {
     centre: DVec3,
     rotation: DMat3,
     inverse: DMat3,
-    /// A plane's normal in the world frame (zero for the other shapes).
-    normal: DVec3,
     velocity: DVec3,
 }
 
@@ -120,23 +116,11 @@ impl Placed<'_> {
         Contact { distance, normal, velocity: self.velocity_at(x) }
     }
 
-    /// Signed distance and outward normal (world frame) at world point `x`. A ball's and a plane's
-    /// are found in the world frame (the same up to rounding: a ball's distance does not turn with it);
-    /// the other shapes' in the body's.
+    /// Signed distance and outward normal (world frame) at world point `x`.
     #[inline]
     pub fn surface(&self, x: DVec3) -> (f64, DVec3) {
-        let p = x - self.centre;
-        match self.body.shape {
-            Shape::Sphere { radius } => {
-                let r = p.length();
-                (r - radius, if r > 0.0 { p / r } else { self.rotation.y_axis })
-            }
-            Shape::Plane { .. } => (p.dot(self.normal), self.normal),
-            _ => {
-                let (distance, normal) = self.body.shape.surface(self.inverse * p);
-                (distance, self.rotation * normal)
-            }
-        }
+        let (distance, normal) = self.body.shape.surface(self.inverse * (x - self.centre));
+        (distance, self.rotation * normal)
     }
 
     /// Velocity of the body's material at world point `x`.

@@ -59,24 +59,12 @@ struct Active {
 }
 
 /// The contact states of all particles.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Contacts {
     state: Vec<ContactState>,
     active: Vec<Active>,
     /// Scratch: the second half's constraints and contacts while the halves are searched at once.
     later: (Vec<Constraint>, Vec<Active>),
-}
-
-impl Clone for Contacts {
-    fn clone(&self) -> Self {
-        Self { state: self.state.clone(), active: self.active.clone(), later: Default::default() }
-    }
-
-    /// The states and active contacts copied into `self`'s buffers (the scratch is not state).
-    fn clone_from(&mut self, source: &Self) {
-        self.state.clone_from(&source.state);
-        self.active.clone_from(&source.active);
-    }
 }
 
 /// What a search for contacts reads: the bodies where they are, the particles, the step.

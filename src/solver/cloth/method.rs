@@ -153,15 +153,6 @@ const VELOCITY_FLOOR: f64 = 0.1;
 /// Default contact margin, m.
 const DEFAULT_MARGIN: f64 = 0.005;
 
-/// A cloth's state saved at the start of a step.
-#[derive(Debug, Clone)]
-struct Saved {
-    x: Vec<DVec3>,
-    v: Vec<DVec3>,
-    dv: Vec<DVec3>,
-    contacts: Contacts,
-}
-
 /// The cloth solver.
 #[derive(Debug, Clone)]
 pub struct Cloth {
@@ -187,8 +178,6 @@ pub struct Cloth {
     residual: Vec<DVec3>,
     /// The solves' vectors.
     pcg: filtered_pcg::Workspace,
-    /// The state at the start of a step, for taking it back ([`Cloth::advance`]).
-    saved: Saved,
     /// Which particles anchors or drags hold this step.
     held: Vec<bool>,
     anchored: Vec<bool>,
@@ -268,7 +257,6 @@ impl Cloth {
             dv: vec![DVec3::ZERO; n],
             work: LinearStep::default(),
             ahead: None,
-            saved: Saved { x: Vec::new(), v: Vec::new(), dv: Vec::new(), contacts: Contacts::new(n) },
             residual: vec![DVec3::ZERO; n],
             pcg: filtered_pcg::Workspace::default(),
             held: vec![false; n],
@@ -348,28 +336,15 @@ impl Cloth {
     /// of `h/2`, up to [`MAX_HALVINGS`] times (Baraff & Witkin 1998, §5). Returns the solves' report
     /// and the springs' energy at the end.
     fn advance(&mut self, h: f64, halvings: u32) -> (PcgReport, f64) {
-        if halvings >= MAX_HALVINGS {
-            let (report, springs) = self.single_step(h);
-            return (report, springs.energy);
-        }
-        // The state before the step, in buffers kept from step to step (a halved step has restored
-        // it before its halves save theirs).
-        let saved = &mut self.saved;
-        saved.x.clone_from(&self.x);
-        saved.v.clone_from(&self.v);
-        saved.dv.clone_from(&self.dv);
-        saved.contacts.clone_from(&self.contacts);
-        let time = self.time;
+        let saved = (halvings < MAX_HALVINGS)
+            .then(|| (self.x.clone(), self.v.clone(), self.dv.clone(), self.contacts.clone(), self.time));
         let (report, springs) = self.single_step(h);
+        let Some((x, v, dv, contacts, time)) = saved else { return (report, springs.energy) };
         if springs.strain_jump <= STRAIN_JUMP {
             return (report, springs.energy);
         }
-        let saved = &self.saved;
-        self.x.clone_from(&saved.x);
-        self.v.clone_from(&saved.v);
-        self.contacts.clone_from(&saved.contacts);
-        (self.time, self.ahead) = (time, None);
-        self.dv.iter_mut().zip(&saved.dv).for_each(|(d, s)| *d = *s * 0.5);
+        (self.x, self.v, self.contacts, self.time, self.ahead) = (x, v, contacts, time, None);
+        self.dv = dv.iter().map(|d| *d * 0.5).collect();
         let (first, _) = self.advance(0.5 * h, halvings + 1);
         let (second, energy) = self.advance(0.5 * h, halvings + 1);
         let report = PcgReport {
